@@ -1,0 +1,5 @@
+"""``python -m pendtrack`` runs the CLI."""
+
+from pendtrack.cli import main
+
+main()

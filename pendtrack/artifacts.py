@@ -1,0 +1,372 @@
+"""The artifact contract: every file a stage hands to another.
+
+For each Parquet artifact: its columns, dtypes, units and a schema version. Artifacts are
+validated on write and on read (a missing or mistyped column is an error that names the
+file and the column), written atomically (temp file in the same folder, fsync, rename: a
+crash never leaves a half file that a later stage could read as good), and carry their
+provenance in the Parquet key-value metadata under the key ``pendtrack``: package version,
+stage, schema version, the resolved config the stage depended on, its input files' names
+and sha256, and the time. JSON artifacts (fit.json, discovery.json) carry the same
+provenance under the key ``"provenance"``.
+
+Units: time in s, angles in rad, angular velocity in rad/s, acceleration in rad/s^2,
+image coordinates in px with x to the right and y down.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from pendtrack import __version__
+from pendtrack.errors import ArtifactError
+
+METADATA_KEY = b"pendtrack"
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column: name, numpy dtype string, unit and meaning."""
+
+    name: str
+    dtype: str  # "float64", "int64", "bool"
+    unit: str  # "s", "rad", "px", "1" (dimensionless), ...
+    description: str
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class ArtifactSchema:
+    """A Parquet artifact: file name, schema version and columns (in order)."""
+
+    kind: str
+    filename: str
+    version: int
+    columns: tuple[Column, ...]
+    description: str
+
+    def column(self, name: str) -> Column:
+        for c in self.columns:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.columns)
+
+
+def _c(name: str, dtype: str, unit: str, description: str, required: bool = True) -> Column:
+    return Column(name, dtype, unit, description, required)
+
+
+SCHEMAS: dict[str, ArtifactSchema] = {
+    s.kind: s
+    for s in (
+        ArtifactSchema(
+            "truth", "truth.parquet", 1,
+            (
+                _c("t", "float64", "s", "frame time, 0 at the first frame"),
+                _c("theta", "float64", "rad", "true angle at the frame's mid-exposure"),
+                _c("omega", "float64", "rad/s", "true angular velocity at the frame's mid-exposure"),
+            ),
+            "Ground truth of a rendered video, one row per frame.",
+        ),
+        ArtifactSchema(
+            "track", "track.parquet", 1,
+            (
+                _c("frame", "int64", "1", "frame index, 0-based"),
+                _c("t", "float64", "s", "presentation time, 0 at the first frame"),
+                _c("x_px", "float64", "px", "marker centre in the raw (distorted) frame, x right"),
+                _c("y_px", "float64", "px", "marker centre in the raw (distorted) frame, y down"),
+                _c("x", "float64", "px", "marker centre after lens correction, x right"),
+                _c("y", "float64", "px", "marker centre after lens correction, y down"),
+                _c("score", "float64", "1", "normalised template-match score in [-1, 1]"),
+                _c("ok", "bool", "1", "score above threshold and position plausible"),
+            ),
+            "Marker track, one row per decoded frame (lost frames kept with ok = false).",
+        ),
+        ArtifactSchema(
+            "angle", "angle.parquet", 1,
+            (
+                _c("t", "float64", "s", "time, 0 at the first frame"),
+                _c("theta", "float64", "rad", "atan2(dx, dy) of spot minus axle, y down; 0 at rest, + to the right; unwrapped"),
+                _c("ok", "bool", "1", "sample usable (tracked frame flagged ok)"),
+            ),
+            "Pendulum angle theta(t).",
+        ),
+        ArtifactSchema(
+            "kinematics", "kinematics.parquet", 1,
+            (
+                _c("t", "float64", "s", "time"),
+                _c("theta", "float64", "rad", "angle (Savitzky-Golay smoothed)"),
+                _c("omega", "float64", "rad/s", "angular velocity d theta/dt (Savitzky-Golay)"),
+                _c("alpha", "float64", "rad/s^2", "angular acceleration d2 theta/dt2 (Savitzky-Golay)"),
+                _c("ok", "bool", "1", "sample usable"),
+                _c("segment", "int64", "1", "index of the gap-free segment the sample belongs to", False),
+                _c("A_theta", "float64", "1", "sin(theta/2), eq. amplitudes", False),
+                _c("A_omega", "float64", "1", "omega/(2 Omega0), eq. amplitudes", False),
+                _c("energy", "float64", "1", "A_theta^2 + A_omega^2, eq. amplitudesobservable", False),
+                _c("phase", "float64", "rad", "phi with tan(phi) = A_theta/A_omega, eq. phasephi", False),
+                _c("phase_speed", "float64", "rad/s", "d phi/dt, eq. phasespeed", False),
+                _c("delta_alpha", "float64", "rad/s^2", "alpha + Omega0^2 sin(theta), eq. lobulosprovados", False),
+                _c("negative_damping", "bool", "1", "delta_alpha * omega > 0, eq. negativedampingdefinition", False),
+            ),
+            "Angle and its derivatives, with the paper's initial analysis.",
+        ),
+        ArtifactSchema(
+            "fit", "fit.parquet", 1,
+            (
+                _c("t", "float64", "s", "time"),
+                _c("theta", "float64", "rad", "measured angle"),
+                _c("theta_model", "float64", "rad", "best-fit model angle"),
+                _c("omega_model", "float64", "rad/s", "best-fit model angular velocity"),
+                _c("residual", "float64", "rad", "theta - theta_model"),
+                _c("model", "str", "1", "model name (one file may hold several models)", False),
+            ),
+            "Best-fit model curves against the data.",
+        ),
+    )
+}
+
+
+def file_sha256(path: str | Path, *, chunk: int = 1 << 20) -> str:
+    """Hex sha256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while block := fh.read(chunk):
+            h.update(block)
+    return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where an artifact came from; stored in its metadata."""
+
+    stage: str
+    config: Mapping[str, Any] = field(default_factory=dict)
+    inputs: Mapping[str, str] = field(default_factory=dict)  # file name -> sha256
+    extra: Mapping[str, Any] = field(default_factory=dict)  # stage facts (axle, zero reference, ...)
+    version: str = __version__
+    created: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "package": "pendtrack",
+            "version": self.version,
+            "stage": self.stage,
+            "config": dict(self.config),
+            "inputs": dict(self.inputs),
+            "extra": dict(self.extra),
+            "created": self.created or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Provenance":
+        return cls(
+            stage=d.get("stage", ""),
+            config=d.get("config", {}),
+            inputs=d.get("inputs", {}),
+            extra=d.get("extra", {}),
+            version=d.get("version", ""),
+            created=d.get("created", ""),
+        )
+
+
+def inputs_for(*paths: str | Path) -> dict[str, str]:
+    """Provenance inputs: each file's name mapped to its sha256."""
+    return {Path(p).name: file_sha256(p) for p in paths}
+
+
+def _check_dtype(series: pd.Series, col: Column) -> bool:
+    kind = series.dtype.kind
+    if col.dtype == "float64":
+        return kind == "f"
+    if col.dtype == "int64":
+        return kind in "iu"
+    if col.dtype == "bool":
+        return kind == "b"
+    if col.dtype == "str":
+        return kind in "OUT" or str(series.dtype) in ("string", "str")
+    raise ValueError(col.dtype)
+
+
+def validate_frame(df: pd.DataFrame, schema: ArtifactSchema, path: str | Path) -> pd.DataFrame:
+    """Check columns and dtypes against the schema; return the frame with columns in order.
+
+    Raises :class:`ArtifactError` naming the file and the first offending column.
+    """
+    for col in schema.columns:
+        if col.name not in df.columns:
+            if col.required:
+                raise ArtifactError(f"missing column '{col.name}' ({schema.kind} schema v{schema.version})", path=path)
+            continue
+        if not _check_dtype(df[col.name], col):
+            raise ArtifactError(
+                f"column '{col.name}' has dtype {df[col.name].dtype}, expected {col.dtype}", path=path
+            )
+    unknown = [c for c in df.columns if c not in schema.names]
+    if unknown:
+        raise ArtifactError(f"column '{unknown[0]}' is not in the {schema.kind} schema", path=path)
+    ordered = [c.name for c in schema.columns if c.name in df.columns]
+    return df[ordered]
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
+    """Call ``write(tmp)`` on a temp file next to ``path``, fsync, then rename over ``path``.
+
+    If ``write`` raises (or the process dies), ``path`` is untouched and the temp file is
+    removed (or, after a kill, left with a ``.tmp`` suffix that no stage reads).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_artifact(df: pd.DataFrame, path: str | Path, kind: str, *, provenance: Provenance) -> Path:
+    """Validate ``df`` against the ``kind`` schema and write it atomically with provenance."""
+    schema = SCHEMAS[kind]
+    df = validate_frame(df, schema, path)
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    record = provenance.to_dict() | {"artifact": kind, "schema_version": schema.version}
+    meta[METADATA_KEY] = json.dumps(record, default=_json_default).encode()
+    table = table.replace_schema_metadata(meta)
+    return atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+
+
+@dataclass(frozen=True)
+class Artifact:
+    """A validated artifact read back: the data and where it came from."""
+
+    data: pd.DataFrame
+    provenance: Provenance
+    path: Path
+
+
+def read_metadata(path: str | Path) -> dict[str, Any] | None:
+    """The pendtrack metadata record of a Parquet file, or None if absent or unreadable."""
+    try:
+        meta = pq.read_schema(path).metadata or {}
+    except (OSError, pa.ArrowException):
+        return None
+    raw = meta.get(METADATA_KEY)
+    if raw is None:
+        return None
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return None
+
+
+def read_artifact(path: str | Path, kind: str) -> Artifact:
+    """Read and validate an artifact of the given kind."""
+    path = Path(path)
+    schema = SCHEMAS[kind]
+    if not path.is_file():
+        raise ArtifactError("file not found", path=path)
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise ArtifactError(f"not a readable Parquet file ({exc})", path=path) from None
+    record = read_metadata(path) or {}
+    found = record.get("schema_version")
+    if record.get("artifact") not in (None, kind):
+        raise ArtifactError(f"is a {record.get('artifact')} artifact, expected {kind}", path=path)
+    if found is not None and found > schema.version:
+        raise ArtifactError(f"schema version {found} is newer than this pendtrack reads ({schema.version})", path=path)
+    df = validate_frame(table.to_pandas(), schema, path)
+    return Artifact(df, Provenance.from_dict(record), path)
+
+
+def is_up_to_date(path: str | Path, kind: str, *, inputs: Mapping[str, str], config: Mapping[str, Any]) -> bool:
+    """True if ``path`` is a complete artifact made from the same inputs and config.
+
+    Used to skip a stage whose output exists (unless --force). A file that cannot be read,
+    has no provenance, or was written by another schema version is not up to date.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return False
+    if path.suffix == ".json":
+        try:
+            record = json.loads(path.read_text()).get("provenance", {})
+        except (OSError, ValueError, AttributeError):
+            return False
+        schema_ok = True
+    else:
+        record = read_metadata(path) or {}
+        schema_ok = record.get("schema_version") == SCHEMAS[kind].version
+    same_config = _normalise(record.get("config")) == _normalise(config)
+    return bool(record) and schema_ok and record.get("inputs") == dict(inputs) and same_config
+
+
+def _normalise(obj: Any) -> Any:
+    return json.loads(json.dumps(obj, default=_json_default, sort_keys=True))
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (tuple, set)):
+        return list(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def write_json_artifact(payload: Mapping[str, Any], path: str | Path, *, required: Iterable[str],
+                        provenance: Provenance) -> Path:
+    """Write a JSON artifact atomically after checking its required top-level keys."""
+    missing = [k for k in required if k not in payload]
+    if missing:
+        raise ArtifactError(f"missing key '{missing[0]}'", path=path)
+    record = dict(payload) | {"provenance": provenance.to_dict()}
+    text = json.dumps(record, indent=2, default=_json_default, allow_nan=True)
+    return atomic_write(path, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+
+
+def read_json_artifact(path: str | Path, *, required: Iterable[str]) -> dict[str, Any]:
+    """Read a JSON artifact and check its required top-level keys."""
+    path = Path(path)
+    if not path.is_file():
+        raise ArtifactError("file not found", path=path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ArtifactError(f"not valid JSON ({exc})", path=path) from None
+    if not isinstance(data, dict):
+        raise ArtifactError("top level is not a JSON object", path=path)
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise ArtifactError(f"missing key '{missing[0]}'", path=path)
+    return data
+
+
+FIT_JSON_KEYS = ("model", "params", "xi2_min", "rms", "aic", "bic", "n", "converged", "runtime_s", "seed")
+DISCOVERY_JSON_KEYS = ("baseline", "effects", "steps", "diagnosis", "final_model")

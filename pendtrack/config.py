@@ -1,0 +1,197 @@
+"""Frozen configuration dataclasses, loaded from ``configs/*.toml``.
+
+The defaults below are the single source of truth; ``configs/default.toml`` documents
+them with comments and a test checks that the two agree. A TOML file only needs the keys
+it changes. Unknown sections or keys, and values of the wrong type, are errors that name
+the file and the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, get_type_hints
+
+from pendtrack.errors import ConfigError
+
+PAPER_FPS = 120.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class LensConfig:
+    """Tracker-compatible radial distortion filter ("Fisheye" input, rectilinear output)."""
+
+    projection: str = "equisolid"  # equisolid | equidistant | stereographic | orthographic | none
+    fov_deg: float = 120.0  # input diagonal field of view [deg]
+    fixed_pixels: float = 0.48  # radius of the circle that does not move, fraction of half-diagonal
+
+
+@dataclass(frozen=True, kw_only=True)
+class VideoConfig:
+    fps: float = 0.0  # 0: time from the container's presentation timestamps; >0 overrides [1/s]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackConfig:
+    marker_color: str = "pink"  # pink | dark | blue | #RRGGBB
+    roi: tuple[int, ...] = ()  # x, y, w, h of the marker in the first frame [px]; () finds it by colour
+    search_margin_px: int = 48  # half-size margin of the search window around the prediction [px]
+    min_score: float = 0.6  # acceptance threshold on the normalised match score (Tracker's automark)
+    evolution_rate: float = 0.0  # template evolution per frame, 0 as in the paper
+    track_in_corrected: bool = False  # True: remap every frame and track in the corrected image
+
+
+@dataclass(frozen=True, kw_only=True)
+class AngleConfig:
+    axle: tuple[float, ...] = ()  # x, y of the axle in corrected px; () fits a circle to the track
+    rest_seconds: float = 2.0  # length of the final still stretch used as the zero of theta [s]
+    rest_omega_max: float = 0.05  # the pendulum counts as still below this |omega| [rad/s]
+
+
+@dataclass(frozen=True, kw_only=True)
+class KinematicsConfig:
+    savgol_window_s: float = 25 / PAPER_FPS  # paper: 25 frames at 120 fps [s]
+    savgol_order: int = 3  # cubic, as in the paper
+    max_gap_s: float = 0.05  # gaps of not-ok samples up to this length are bridged [s]
+    min_segment_s: float = 1.0  # shorter segments between long gaps are dropped [s]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModelsConfig:
+    memory_s: float = 100 / PAPER_FPS  # Grünwald–Letnikov memory: paper's 100 frames at 120 fps [s]
+    full_history: bool = False  # True: the GL sum runs over the whole record
+
+
+@dataclass(frozen=True, kw_only=True)
+class FitConfig:
+    models: tuple[str, ...] = ("classic", "opa", "fractional")  # fitted by `run`
+    cost: str = "xi2"  # xi2 (paper's eq. leastsquarescostfunction) | theta (plain least squares)
+    n_starts: int = 150  # paper: 150 independent starts
+    accept_ratio: float = 1.25  # paper's 5/4 rule: starts with Xi^2 <= 5/4 Xi^2_min
+    start_spread: float = 0.5  # starts drawn within +-spread (relative) around the estimates
+    seed: int = 0  # seed of the start draws
+    workers: int = 0  # processes for the starts; 0 = all cores
+
+
+@dataclass(frozen=True, kw_only=True)
+class RenderConfig:
+    width: int = 1280  # [px]
+    height: int = 720  # [px]
+    fps: float = PAPER_FPS  # [1/s]
+    seconds: float = 10.0  # [s]
+    model: str = "standard"
+    theta0: float = 3.0  # initial angle, near the top [rad]
+    omega0: float = 0.0  # initial angular velocity [rad/s]
+    seed: int = 0
+    camera_distance_m: float = 0.58  # camera to axle [m]
+    spot_distance_m: float = 0.26  # axle to the pink spot's centre [m]
+    spot_radius_m: float = 0.012  # [m]
+    bar_length_m: float = 0.52  # [m]
+    bar_width_m: float = 0.02  # [m]
+    disc_diameter_m: float = 0.06  # [m]
+    tile_width_m: float = 0.18  # [m]
+    exposure_s: float = 1 / 480  # shutter open time, sets the motion blur [s]
+    noise_sigma: float = 2.0  # sensor noise, standard deviation in 8-bit levels
+    crf: int = 20  # H.264 constant rate factor
+    two_cuboid_x: float = 1.48  # X = lambda0/lambda1 of eq. consistencycheck
+    two_cuboid_l0_m: float = 0.54  # l0 of eq. consistencycheck [m]
+    gravity: float = 9.81  # [m/s^2]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Config:
+    """The whole pipeline's configuration; each stage reads its sections."""
+
+    lens: LensConfig = field(default_factory=LensConfig)
+    video: VideoConfig = field(default_factory=VideoConfig)
+    track: TrackConfig = field(default_factory=TrackConfig)
+    angle: AngleConfig = field(default_factory=AngleConfig)
+    kinematics: KinematicsConfig = field(default_factory=KinematicsConfig)
+    models: ModelsConfig = field(default_factory=ModelsConfig)
+    fit: FitConfig = field(default_factory=FitConfig)
+    render: RenderConfig = field(default_factory=RenderConfig)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain nested dict (tuples become lists) for JSON provenance."""
+        out: dict[str, dict[str, Any]] = {}
+        for f in fields(self):
+            section = dataclasses.asdict(getattr(self, f.name))
+            out[f.name] = {k: list(v) if isinstance(v, tuple) else v for k, v in section.items()}
+        return out
+
+    def sections(self, *names: str) -> dict[str, dict[str, Any]]:
+        """The named sections only: what a stage records as the config it depends on."""
+        full = self.to_dict()
+        return {n: full[n] for n in names}
+
+    def replace(self, section: str, **values: Any) -> "Config":
+        """A copy with some values of one section changed (CLI flags over the file)."""
+        current = getattr(self, section)
+        new_section = _coerce_section(type(current), {**dataclasses.asdict(current), **values}, "<flags>", section)
+        return dataclasses.replace(self, **{section: new_section})
+
+
+def _coerce_value(value: Any, hint: Any, source: str, key: str) -> Any:
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"'{key}' must be a number, got {value!r}", path=source)
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"'{key}' must be an integer, got {value!r}", path=source)
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"'{key}' must be true or false, got {value!r}", path=source)
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"'{key}' must be a string, got {value!r}", path=source)
+        return value
+    origin = getattr(hint, "__origin__", None)
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"'{key}' must be a list, got {value!r}", path=source)
+        item_hint = hint.__args__[0]
+        return tuple(_coerce_value(v, item_hint, source, key) for v in value)
+    raise TypeError(f"unsupported config type {hint!r} for {key}")  # programming error
+
+
+def _coerce_section(cls: type, values: dict[str, Any], source: str, section: str) -> Any:
+    hints = get_type_hints(cls)
+    known = {f.name for f in fields(cls)}
+    for key in values:
+        if key not in known:
+            raise ConfigError(f"unknown key '{section}.{key}'", path=source)
+    coerced = {k: _coerce_value(v, hints[k], source, f"{section}.{k}") for k, v in values.items()}
+    return cls(**coerced)
+
+
+def config_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Config:
+    """Build a :class:`Config` from nested dicts holding only the keys that change."""
+    hints = get_type_hints(Config)
+    known = {f.name for f in fields(Config)}
+    sections: dict[str, Any] = {}
+    for name, values in data.items():
+        if name not in known:
+            raise ConfigError(f"unknown section '[{name}]'", path=source)
+        if not isinstance(values, dict):
+            raise ConfigError(f"'{name}' must be a table", path=source)
+        sections[name] = _coerce_section(hints[name], values, source, name)
+    return Config(**sections)
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load a TOML config file over the defaults; ``None`` gives the defaults."""
+    if path is None:
+        return Config()
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("config file not found", path=path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"not valid TOML ({exc})", path=path) from None
+    return config_from_dict(data, source=str(path))
