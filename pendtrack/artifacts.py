@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import re
 import json
 import os
 import tempfile
@@ -48,14 +49,35 @@ class Column:
 
 
 @dataclass(frozen=True)
+class ColumnPattern:
+    """A family of columns named by a regular expression (e.g. one per model parameter)."""
+
+    regex: str  # full-match pattern, e.g. r"classic__(\w+)__value"
+    dtype: str
+    unit: str  # unit may depend on the name; say so here ("as the parameter")
+    description: str
+
+
+@dataclass(frozen=True)
 class ArtifactSchema:
-    """A Parquet artifact: file name, schema version and columns (in order)."""
+    """A Parquet artifact: file name, schema version and columns (in order).
+
+    ``patterns`` admit extra columns whose names match a regular expression (written after
+    the fixed columns, in the order given).
+    """
 
     kind: str
     filename: str
     version: int
     columns: tuple[Column, ...]
     description: str
+    patterns: tuple[ColumnPattern, ...] = ()
+
+    def pattern_for(self, name: str) -> ColumnPattern | None:
+        for pat in self.patterns:
+            if re.fullmatch(pat.regex, name):
+                return pat
+        return None
 
     def column(self, name: str) -> Column:
         for c in self.columns:
@@ -217,10 +239,14 @@ def validate_frame(df: pd.DataFrame, schema: ArtifactSchema, path: str | Path) -
             raise ArtifactError(
                 f"column '{col.name}' has dtype {df[col.name].dtype}, expected {col.dtype}", path=path
             )
-    unknown = [c for c in df.columns if c not in schema.names]
-    if unknown:
-        raise ArtifactError(f"column '{unknown[0]}' is not in the {schema.kind} schema", path=path)
-    ordered = [c.name for c in schema.columns if c.name in df.columns]
+    extra = [c for c in df.columns if c not in schema.names]
+    for name in extra:
+        pat = schema.pattern_for(str(name))
+        if pat is None:
+            raise ArtifactError(f"column '{name}' is not in the {schema.kind} schema", path=path)
+        if not _check_dtype(df[name], Column(str(name), pat.dtype, pat.unit, pat.description)):
+            raise ArtifactError(f"column '{name}' has dtype {df[name].dtype}, expected {pat.dtype}", path=path)
+    ordered = [c.name for c in schema.columns if c.name in df.columns] + extra
     return df[ordered]
 
 

@@ -141,3 +141,17 @@ def test_json_artifact_round_trip_and_required_keys(tmp_path):
     assert json.loads(path.read_text())["model"] == "classic"
     assert not any(p.name.endswith(".tmp") for p in tmp_path.iterdir())
     assert os.access(path, os.R_OK)
+
+
+def test_pattern_columns_are_admitted_and_typed(tmp_path):
+    from dataclasses import replace
+
+    from pendtrack.artifacts import ColumnPattern, validate_frame
+
+    schema = replace(SCHEMAS["angle"], patterns=(ColumnPattern(r"p__\w+", "float64", "as named", "param"),))
+    df = angle_frame().assign(p__Omega0=1.0)
+    assert list(validate_frame(df, schema, "x").columns) == ["t", "theta", "ok", "p__Omega0"]
+    with pytest.raises(ArtifactError, match="column 'p__C0' has dtype"):
+        validate_frame(df.assign(p__C0="a"), schema, "x")
+    with pytest.raises(ArtifactError, match="column 'q' is not in the angle schema"):
+        validate_frame(df.assign(q=1.0), schema, "x")
