@@ -160,6 +160,39 @@ SCHEMAS: dict[str, ArtifactSchema] = {
             ),
             "Best-fit model curves against the data.",
         ),
+        ArtifactSchema(
+            "summary", "summary.parquet", 1,
+            (
+                _c("run_id", "str", "1", "run code plus lower-cased file-name suffix (the run's folder); '' if skipped"),
+                _c("file", "str", "1", "video file name"),
+                _c("status", "str", "1", "ok | failed | skipped"),
+                _c("reason", "str", "1", "error message (failed) or why the file was skipped; '' if ok"),
+                _c("resumed", "bool", "1", "ok run found complete from an earlier batch, not recomputed (nullable)"),
+                _c("code", "str", "1", "canonical run code, e.g. 06na5 (paper's Table kindofrun); '' if skipped"),
+                _c("kind", "str", "1", "la | ln | na | nn: launched or not, alley or not"),
+                _c("tile_cm", "int64", "cm", "tile length l1 from the run code, 0 = no tile (nullable)"),
+                _c("l1_m", "float64", "m", "tile length l1"),
+                _c("launched", "bool", "1", "launched with an initial speed (l) or released (n) (nullable)"),
+                _c("alley", "bool", "1", "run with the alley (nullable)"),
+                _c("trial", "int64", "1", "trial number (nullable)"),
+                _c("frames", "int64", "1", "decoded frames, rows of track.parquet (nullable)"),
+                _c("fps", "float64", "1/s", "frame rate (track provenance, else 1/median dt)"),
+                _c("duration_s", "float64", "s", "frames / fps"),
+                _c("ok_fraction", "float64", "1", "fraction of frames tracked ok"),
+                _c("runtime_s", "float64", "s", "wall time of the run's pipeline (done.json)"),
+                _c("video_sha256", "str", "1", "sha256 of the video the results come from"),
+            ),
+            "Batch summary, one row per run and per skipped or failed file (pendtrack.batch.summary).",
+            (
+                ColumnPattern(r"discover__\w+", "str", "1", "discovery: final_model, effects ('+'-joined)"),
+                ColumnPattern(r"\w+?__\w+?__(?:value|stderr|u_paper)", "float64", "as the parameter",
+                              "MODEL__PARAM__value|stderr|u_paper: fitted value, statistical and paper's uncertainty"),
+                ColumnPattern(r"\w+?__(?:xi2_min|rms|aic|bic|runtime_s)", "float64", "as in fit.json",
+                              "MODEL__xi2_min|rms|aic|bic|runtime_s from the model's fit.json"),
+                ColumnPattern(r"\w+?__converged", "bool", "1", "MODEL__converged (nullable)"),
+                ColumnPattern(r"\w+?__n", "int64", "1", "MODEL__n: samples in the fit (nullable)"),
+            ),
+        ),
     )
 }
 
@@ -265,11 +298,18 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
         write(tmp)
         with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; an artifact gets the usual mode
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def _umask() -> int:
+    current = os.umask(0)
+    os.umask(current)
+    return current
 
 
 def write_artifact(df: pd.DataFrame, path: str | Path, kind: str, *, provenance: Provenance) -> Path:
