@@ -436,3 +436,20 @@ def read_json_artifact(path: str | Path, *, required: Iterable[str]) -> dict[str
 
 FIT_JSON_KEYS = ("model", "params", "xi2_min", "rms", "aic", "bic", "n", "converged", "runtime_s", "seed")
 DISCOVERY_JSON_KEYS = ("baseline", "effects", "steps", "diagnosis", "final_model")
+
+
+def schemas_markdown() -> str:
+    """Markdown tables of every Parquet artifact (the README embeds this text verbatim)."""
+
+    def row(*cells: str) -> str:
+        return "| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |"
+
+    parts = []
+    for s in SCHEMAS.values():
+        rows = [f"**{s.filename}** (schema v{s.version}): {s.description}", "",
+                "| column | dtype | unit | meaning |", "|---|---|---|---|"]
+        rows += [row(f"`{c.name}`", c.dtype, c.unit, c.description + ("" if c.required else " (optional)"))
+                 for c in s.columns]
+        rows += [row(f"`{p.regex}`", p.dtype, p.unit, p.description) for p in s.patterns]
+        parts.append("\n".join(rows))
+    return "\n\n".join(parts) + "\n"

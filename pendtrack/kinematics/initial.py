@@ -1,0 +1,129 @@
+"""The whole initial analysis on a differentiated record (what the kinematics stage writes)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pendtrack.errors import FitError
+from pendtrack.kinematics.analysis import (
+    Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
+    negative_damping_fraction, phase, phase_speed, savgol_bias_moments, turning_points,
+)
+from pendtrack.kinematics.differentiate import KinematicsResult, savgol_kinematics
+
+
+@dataclass(frozen=True)
+class InitialAnalysis:
+    """Model-free analysis of a record.
+
+    Attributes
+    ----------
+    omega0 : Omega0Estimate or None
+        None when it cannot be estimated (``reason`` says why); the columns are then absent.
+    turning : TurningPoints
+        The omega = 0 crossings used.
+    columns : dict of str to numpy.ndarray
+        Per-sample analysis columns named as in the kinematics schema: ``A_theta``,
+        ``A_omega``, ``energy``, ``phase``, ``phase_speed``, ``delta_alpha``,
+        ``negative_damping``.
+    negative_damping_fraction : float
+        Fraction of usable samples with negative damping (NaN without Omega0).
+    reason : str
+        Empty, or why Omega0 could not be estimated.
+    """
+
+    omega0: Omega0Estimate | None
+    turning: TurningPoints
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    negative_damping_fraction: float = math.nan
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"omega0": None if self.omega0 is None else self.omega0.to_dict(),
+                "turning": self.turning.to_dict(),
+                "columns": {k: v.tolist() for k, v in self.columns.items()},
+                "negative_damping_fraction": self.negative_damping_fraction, "reason": self.reason}
+
+
+def _turning(kin: KinematicsResult) -> TurningPoints:
+    edge = 0.5 * float(kin.info.get("window_s", 0.0))
+    return turning_points(kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, kin.segment, edge_s=edge)
+
+
+def _moments(kin: KinematicsResult) -> tuple[float, float] | None:
+    info = kin.info
+    if not {"window_points", "order", "h"} <= set(info):
+        return None
+    return savgol_bias_moments(int(info["window_points"]), int(info["order"]), float(info["h"]))
+
+
+def omega0_from_kinematics(kin: KinematicsResult, *, correct_smoothing: bool = True) -> Omega0Estimate:
+    """Omega0 from eq. straightline on the turning points of a differentiated record.
+
+    Turning points within half a window of a segment's ends are skipped (edge fits).
+    ``correct_smoothing`` removes the Savitzky-Golay bias (see :func:`estimate_omega0`).
+
+    Raises
+    ------
+    FitError
+        Too few turning points or no restoring slope.
+    """
+    tp = _turning(kin)
+    return estimate_omega0(tp.theta, tp.alpha, sg_moments=_moments(kin) if correct_smoothing else None)
+
+
+def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *, window_s: float = 25 / 120, order: int = 3,
+                               max_gap_s: float = 0.05, min_segment_s: float = 1.0) -> Omega0Estimate:
+    """Omega0 [rad/s] straight from theta(t): Savitzky-Golay, turning points, eq. straightline.
+
+    Convenience for initial estimates of a fit; same parameters as :func:`savgol_kinematics`.
+    """
+    kin = savgol_kinematics(t, theta, ok, window_s=window_s, order=order, max_gap_s=max_gap_s,
+                            min_segment_s=min_segment_s)
+    return omega0_from_kinematics(kin)
+
+
+def analyse(kin: KinematicsResult, *, omega0: float | None = None, correct_smoothing: bool = True) -> InitialAnalysis:
+    """Turning points, Omega0 and the per-sample analysis columns.
+
+    Parameters
+    ----------
+    kin : KinematicsResult
+        Output of :func:`savgol_kinematics`.
+    omega0 : float, optional
+        Use this Omega0 [rad/s] for the columns instead of the estimate (the estimate is
+        still computed and reported when possible).
+    correct_smoothing : bool
+        Remove the Savitzky-Golay bias from the Omega0 estimate (see :func:`estimate_omega0`).
+
+    Returns
+    -------
+    InitialAnalysis
+    """
+    tp = _turning(kin)
+    est: Omega0Estimate | None
+    reason = ""
+    try:
+        est = estimate_omega0(tp.theta, tp.alpha, sg_moments=_moments(kin) if correct_smoothing else None)
+    except FitError as exc:
+        est, reason = None, str(exc)
+    w0 = omega0 if omega0 is not None else (None if est is None else est.omega0)
+    if w0 is None:
+        return InitialAnalysis(omega0=None, turning=tp, reason=reason)
+    a_th, a_om, energy = amplitudes(kin.theta, kin.omega, w0)
+    neg = negative_damping(kin.theta, kin.omega, kin.alpha, w0)
+    cols = {
+        "A_theta": a_th,
+        "A_omega": a_om,
+        "energy": energy,
+        "phase": phase(kin.theta, kin.omega, w0, kin.segment),
+        "phase_speed": phase_speed(kin.theta, kin.omega, kin.alpha, w0),
+        "delta_alpha": delta_alpha(kin.theta, kin.alpha, w0),
+        "negative_damping": neg & kin.ok,
+    }
+    return InitialAnalysis(omega0=est, turning=tp, columns=cols,
+                           negative_damping_fraction=negative_damping_fraction(neg, kin.ok), reason=reason)
