@@ -34,7 +34,7 @@ class RunOutput:
 
 def run_pipeline(video: str | Path, *, out_dir: str | Path, config: Config, models: tuple[str, ...] | None = None,
                  force: bool = False, progress: bool = True) -> RunOutput:
-    """Track, angle, kinematics and fit one video into ``out_dir``.
+    """Track, angle, kinematics and fit one video into ``out_dir``, then write report.html.
 
     Parameters
     ----------
@@ -55,6 +55,7 @@ def run_pipeline(video: str | Path, *, out_dir: str | Path, config: Config, mode
     from pendtrack.stages.angle import angle_stage
     from pendtrack.stages.fit import fit_stage
     from pendtrack.stages.kinematics import kinematics_stage
+    from pendtrack.stages.report import report_stage
     from pendtrack.stages.track import track_stage
 
     video = Path(video)
@@ -67,4 +68,5 @@ def run_pipeline(video: str | Path, *, out_dir: str | Path, config: Config, mode
     stages["angle"] = angle_stage(stages["track"].path, **common)
     stages["kinematics"] = kinematics_stage(stages["angle"].path, **common)
     stages["fit"] = fit_stage(stages["kinematics"].path, models=models or config.fit.models, **common)
+    stages["report"] = report_stage(out_dir, config=config, force=force, progress=progress)
     return RunOutput(out_dir=out_dir, stages=stages)

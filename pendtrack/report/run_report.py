@@ -1,0 +1,340 @@
+"""The report of one run: the paper's per-run figures, parameter tables and discovery narrative.
+
+:func:`build_run_page` turns a :class:`~pendtrack.report.load.RunData` into a
+:class:`~pendtrack.report.html.Page`. Every section checks its inputs first and says what is
+missing instead of failing; a figure that raises anyway becomes an error note naming the
+problem (and is logged), so one bad artifact never costs the whole report.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from html import escape
+from typing import Any
+
+import numpy as np
+
+from pendtrack.config import Config
+from pendtrack.report import derive as D
+from pendtrack.report import figures as F
+from pendtrack.report import tables as T
+from pendtrack.report.discovery_view import discovery_section
+from pendtrack.report.html import Facts, FigureBlock, Note, Page, Section
+from pendtrack.report.load import RunData
+from pendtrack.report.style import to_png
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[int], None]
+
+
+def draw(key: str, caption: str, build: Callable[[], Any], on_progress: Progress | None = None) -> FigureBlock:
+    """Call ``build()`` for a Figure and embed it; an exception becomes the block's error text."""
+    try:
+        fig = build()
+        png = to_png(fig)
+    except Exception as exc:  # a figure must never cost the whole report
+        log.warning("report figure %s failed", key, exc_info=True)
+        block = FigureBlock(key, caption, error=f"{type(exc).__name__}: {exc}")
+    else:
+        block = FigureBlock(key, caption, png=png)
+    if on_progress is not None:
+        on_progress(1)
+    return block
+
+
+def _missing(what: str, needs: str) -> Note:
+    return Note(f"No {what}: {needs} is missing in this run folder.", kind="missing")
+
+
+def _overview(run: RunData) -> Section:
+    facts: list[tuple[str, str]] = [("run", run.name), ("folder", str(run.run_dir))]
+    track = run.get("track")
+    if track is not None and len(track):
+        t = track["t"].to_numpy(float)
+        ok = track["ok"].to_numpy(bool)
+        fps = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else float("nan")
+        facts += [("frames", f"{len(t)}"), ("duration", f"{t[-1] - t[0]:.2f} s"), ("frame rate", f"{fps:.2f} /s"),
+                  ("tracked ok", f"{100 * ok.mean():.2f} % ({int((~ok).sum())} flagged)")]
+    w0 = D.data_omega0(run)
+    if w0 is not None:
+        err = f" ± {w0.stderr:.4f}" if w0.stderr is not None else ""
+        facts.append(("Ω0 (model-free)", f"{w0.value:.4f}{err} rad/s"))
+    if run.fits:
+        facts.append(("fitted models", ", ".join(run.fits)))
+        selected = (run.combined or {}).get("selected")
+        if selected:
+            facts.append(("selected model", f"{selected} ({(run.combined or {}).get('selected_by', 'lowest BIC')})"))
+    if run.discovery:
+        facts.append(("discovered model", str(run.discovery.get("final_model", ""))))
+    present = sorted(p.name for p in run.inputs)
+    facts.append(("artifacts", ", ".join(present) or "none"))
+    blocks: list[Any] = [Facts(tuple(facts))]
+    for p in run.problems:
+        blocks.append(Note(f"Could not read: {p}", kind="error"))
+    return Section("overview", "Run overview", tuple(blocks))
+
+
+def _tracking(run: RunData, on_progress: Progress | None) -> Section:
+    track = run.get("track")
+    if track is None:
+        return Section("tracking", "Tracking quality", (_missing("tracking figures", "track.parquet"),))
+    min_score = D.find_number(run.stage_config("track"), "min_score")
+    blocks: list[Any] = [draw(
+        "track-score",
+        "Template-match score of every frame. <b>Look for</b> long dips towards the dashed acceptance threshold "
+        "(lighting, reflections, motion blur near the bottom of the swing); red ticks mark frames flagged not ok, "
+        "which later stages bridge or drop.",
+        lambda: F.track_quality_figure(track["t"], track["score"], track["ok"], min_score=min_score), on_progress)]
+    extra = run.extra("angle")
+    circle = extra.get("circle") if isinstance(extra.get("circle"), dict) else {}
+    axle = extra.get("axle_px") or extra.get("axle")
+    if axle is None and circle:
+        axle = (circle.get("xc"), circle.get("yc"))
+    axle_xy = (float(axle[0]), float(axle[1])) if axle is not None and None not in tuple(axle)[:2] else None
+    radius = D.find_number(circle, "radius") if circle else D.find_number(extra, "radius_px", "radius")
+    rms = D.find_number(extra, "circle_rms_px") or (D.find_number(circle, "rms_px") if circle else None)
+    source = extra.get("axle_source", "")
+    rms_text = f" The angle stage reports an RMS radial residual of {rms:.2f} px." if rms is not None else ""
+    blocks.append(draw(
+        "circle-fit",
+        f"Left: lens-corrected marker positions with the circle fitted to them (axle: {escape(str(source)) or 'as recorded'}). "
+        f"Right: each point's distance to the axle minus the radius.{rms_text} <b>Look for</b> a flat, "
+        "structureless band: a trend or a swing-synchronous pattern means a misplaced axle or residual lens "
+        "distortion, which would bias θ.",
+        lambda: F.circle_fit_figure(track["t"], track["x"], track["y"], track["ok"], axle=axle_xy, radius=radius,
+                                    rms=rms), on_progress))
+    if run.get("angle") is None:
+        blocks.append(Note("angle.parquet is missing: the circle above is drawn without the angle stage's fit.",
+                           kind="missing"))
+    return Section("tracking", "Tracking quality", tuple(blocks))
+
+
+def _kinematics(run: RunData, config: Config, on_progress: Progress | None) -> tuple[Section, ...]:
+    kin = run.get("kinematics")
+    if kin is None:
+        note = _missing("kinematic analysis", "kinematics.parquet")
+        return (Section("kinematics", "Kinematic data (Fig. S1)", (note,)),
+                Section("ozsin", "Acceleration at the turning points (Fig. ozsin)", (note,)),
+                Section("lobes", "Hysteresis of Δα(ω) (Figs. lobolusdecaras, dissipativehysteresis)", (note,)))
+    ok = kin["ok"].to_numpy(bool)
+    k = kin[ok]
+    s1 = draw(
+        "S1",
+        "Fig. S1: the kinematic data θ, ω = dθ/dt and α = d²θ/dt² (Savitzky–Golay derivatives), as a 3-D "
+        "trajectory coloured by time and as time series. Figs. ozsin and lobolusdecaras below are projections "
+        "of this curve. <b>Look for</b> the release near θ = π and a smooth spiral towards rest.",
+        lambda: F.kinematics_figure(k["t"], k["theta"], k["omega"], k["alpha"]), on_progress)
+    oz_blocks: list[Any] = []
+    try:
+        window_s, order = D.savgol_setup(run, config)
+        tp = D.turning_points(kin, window_s=window_s, order=order, extra=run.extra("kinematics"))
+    except Exception as exc:
+        log.warning("report: turning points failed", exc_info=True)
+        oz_blocks.append(Note(f"No turning-point analysis: {type(exc).__name__}: {exc}", kind="missing"))
+    else:
+        oz_blocks.append(draw(
+            "ozsin",
+            "Fig. ozsin: angular acceleration at the extreme angles θ<sub>ext</sub> (where ω = 0) against "
+            "θ<sub>ext</sub>, with the fit α = −Ω<sub>0</sub>² sin θ<sub>ext</sub> (eq. straightline) that gives "
+            "the model-free natural frequency"
+            + (" (solid: with the Savitzky–Golay smoothing bias removed, as the kinematics stage does; dashed: "
+               "the direct fit to the plotted points, which the residual panel refers to)" if tp.corrected else "")
+            + ". <b>Look for</b> points on the sine at every amplitude; the residual panel shows what the sine "
+            "leaves (friction acting at rest, the noise of α).",
+            lambda: F.ozsin_figure(tp.theta_ext, tp.alpha_ext, tp.omega0, omega0_err=tp.omega0_stderr,
+                                   omega0_raw=tp.omega0_raw if tp.corrected else None),
+            on_progress))
+    return (Section("kinematics", "Kinematic data (Fig. S1)", (s1,)),
+            Section("ozsin", "Acceleration at the turning points (Fig. ozsin)", tuple(oz_blocks)),
+            _lobes(run, k, config, on_progress))
+
+
+def _data_delta_alpha(run: RunData, k: Any) -> tuple[np.ndarray, D.Omega0 | None]:
+    w0 = D.data_omega0(run)
+    if "delta_alpha" in k.columns:
+        return k["delta_alpha"].to_numpy(float), w0
+    if w0 is None:
+        raise ValueError("no Omega0 to compute Δα (kinematics.parquet has no delta_alpha column)")
+    from pendtrack.kinematics import delta_alpha
+
+    return np.asarray(delta_alpha(k["theta"].to_numpy(float), k["alpha"].to_numpy(float), w0.value), float), w0
+
+
+def _lobes(run: RunData, k: Any, config: Config, on_progress: Progress | None) -> Section:
+    title = "Hysteresis of Δα(ω) (Figs. lobolusdecaras, dissipativehysteresis)"
+    try:
+        da, w0 = _data_delta_alpha(run, k)
+    except ValueError as exc:
+        return Section("lobes", title, (Note(str(exc), kind="missing"),))
+    w0_text = f"Ω<sub>0</sub> = {w0.value:.4f} rad/s, {w0.source}" if w0 is not None else "the kinematics stage's Ω0"
+    blocks: list[Any] = [draw(
+        "lobolusdecaras",
+        f"Fig. lobolusdecaras: Δα = α + Ω<sub>0</sub>² sin θ (eq. lobulosprovados, {w0_text}) against ω for the "
+        "whole run, coloured by time. Δα is what gravity does not explain: dissipative plus inertial "
+        "acceleration. <b>Look for</b> the lobes (hysteresis: Δα depends on more than the instantaneous ω) and "
+        "for points in the shaded odd quadrants, where Δα·ω > 0: negative damping "
+        "(eq. negativedampingdefinition).",
+        lambda: F.delta_alpha_figure(k["t"], k["omega"], da), on_progress)]
+    curves = D.model_curves(run)
+    sg_window, sg_order = D.savgol_setup(run, config)
+    # the paper's first ten seconds, less the filter's first half-window (its edge fit is poor at release)
+    t0 = (float(k["t"].iloc[0]) if len(k) else 0.0) + 0.5 * sg_window
+    window = D.time_window(k.assign(_da=da), t0, D.PAPER_HYSTERESIS_S)
+    models: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    notes: list[str] = []
+    for name, curve in curves.items():
+        mw0 = D.model_omega0(run, name) or w0
+        if mw0 is None:
+            notes.append(f"{name}: no Ω0")
+            continue
+        c = curve.assign(_da=D.model_delta_alpha(curve, mw0.value, window_s=sg_window, order=sg_order))
+        c = D.time_window(c, t0, D.PAPER_HYSTERESIS_S)
+        models[name] = (c["omega_model"].to_numpy(float), c["_da"].to_numpy(float))
+    power = None
+    classic = D.param_values(run.fits["classic"]) if "classic" in run.fits else {}
+    if {"Omega0", "C0", "C3", "p"} <= set(classic):
+        wmax = float(np.nanmax(np.abs(window["omega"].to_numpy(float)))) if len(window) else 1.0
+        try:
+            power = D.power_law_curve(classic, wmax)
+        except Exception as exc:  # bad parameters: draw without the power-law curve
+            notes.append(f"power-law curve: {exc}")
+    if not models:
+        blocks.append(Note("No model curves for Fig. dissipativehysteresis: fit.parquet is missing (run the fit "
+                           "stage). The data alone are shown above.", kind="missing"))
+        return Section("lobes", title, tuple(blocks))
+    blocks.append(draw(
+        "dissipativehysteresis",
+        f"Fig. dissipativehysteresis: a<sub>diss</sub> + a<sub>iner</sub> = Δα against ω for the first "
+        f"{D.PAPER_HYSTERESIS_S:g} s, data and each fitted model (each model's Δα uses its own fitted Ω<sub>0</sub> "
+        "and the data's Savitzky–Golay filter), with the classic model's dissipation at C<sub>a</sub> = 0 as "
+        "“power-law”. The insets zoom on low speeds on each side of ω = 0. <b>Look for</b> which model follows "
+        "the data's loops, and whether any model enters the shaded negative-damping quadrants as the data do "
+        "(the classic model cannot)." + (f" Not drawn: {escape('; '.join(notes))}." if notes else ""),
+        lambda: F.hysteresis_figure(window["omega"], window["_da"], models, power_law=power,
+                                    seconds=D.PAPER_HYSTERESIS_S), on_progress))
+    return Section("lobes", title, tuple(blocks))
+
+
+def _fit_window(run: RunData, model: str) -> tuple[float, float] | None:
+    window = (run.fits.get(model) or {}).get("window")
+    if isinstance(window, list) and len(window) == 2:
+        lo, hi = (D.find_number({"v": w}, "v") for w in window)
+        if lo is not None and hi is not None:
+            return lo, hi
+    return None
+
+
+def _fits(run: RunData, on_progress: Progress | None) -> tuple[Section, ...]:
+    curves = D.model_curves(run)
+    title_full = "Fits over the complete run (Figs. spuriousosc, superfit)"
+    title_zoom = "The first swings (Figs. S2, S3)"
+    if not curves:
+        note = _missing("model curves", "fit.parquet (the fit stage's output)")
+        return Section("fits", title_full, (note,)), Section("first-swings", title_zoom, (note,))
+    blocks: list[Any] = []
+    paper = {"classic": "Fig. spuriousosc", "fractional": "Fig. superfit"}
+    for name, c in curves.items():
+        label = paper.get(name, "as Figs. spuriousosc/superfit")
+        blocks.append(draw(
+            f"theta-{name}",
+            f"{label}: θ(t) of the data and of the fitted {escape(name)} model over the complete run, and the residual "
+            "θ − θ<sub>model</sub>. <b>Look for</b> structure in the residual: a persistent oscillation (dephasing, "
+            "as the paper finds for the classic model) rather than white noise, and where in the run the model "
+            "starts to deviate.",
+            lambda c=c, name=name: F.theta_fit_figure(c["t"], c["theta"], {name: c["theta_model"]},
+                                                      {name: c["residual"]}, title=f"{name} model, complete run",
+                                                      window=_fit_window(run, name)),
+            on_progress))
+    w0 = D.best_omega0(run)
+    span = D.FIRST_SWINGS * 2 * np.pi / w0.value if w0 is not None else 5.0
+    t0 = min(float(c["t"].iloc[0]) for c in curves.values())
+    zoom = {name: D.time_window(c, t0, span) for name, c in curves.items()}
+    ref = next(iter(zoom.values()))
+    zoom_block = draw(
+        "first-swings",
+        f"Figs. S2/S3: the first {D.FIRST_SWINGS:g} natural periods ({span:.1f} s) of θ(t) with every fitted model "
+        "and their residuals. <b>Look for</b> the residual peak the paper finds near t = 1 s after a release "
+        "from near the top, and which model follows the large-amplitude swings best.",
+        lambda: F.theta_fit_figure(ref["t"], ref["theta"],
+                                   {n: np.interp(ref["t"], z["t"], z["theta_model"]) for n, z in zoom.items()},
+                                   {n: np.interp(ref["t"], z["t"], z["residual"]) for n, z in zoom.items()},
+                                   title="first swings"), on_progress)
+    return Section("fits", title_full, tuple(blocks)), Section("first-swings", title_zoom, (zoom_block,))
+
+
+def _amplitudes(run: RunData, on_progress: Progress | None) -> tuple[Section, Section]:
+    kin = run.get("kinematics")
+    t1 = "Energy amplitudes and phase speed (Fig. schluck)"
+    t2 = "Nyquist-like plot (Fig. nyquist)"
+    if kin is None:
+        note = _missing("amplitudes", "kinematics.parquet")
+        return Section("schluck", t1, (note,)), Section("nyquist", t2, (note,))
+    k = kin[kin["ok"].to_numpy(bool)]
+    w0 = D.data_omega0(run)
+    if w0 is None or not {"A_theta", "A_omega"} <= set(k.columns):
+        note = Note("No amplitudes: kinematics.parquet has no A_theta/A_omega columns or no Ω0.", kind="missing")
+        return Section("schluck", t1, (note,)), Section("nyquist", t2, (note,))
+    curves = D.model_curves(run)
+    model_name = next((m for m in ("fractional", "classic") if m in curves), next(iter(curves), None))
+    model = None
+    if model_name is not None:
+        c = curves[model_name]
+        at, aw = D.amplitudes(c["theta_model"], c["omega_model"], w0.value)
+        model = (model_name, c["t"].to_numpy(float), at, aw)
+    phase_speed = k["phase_speed"] if "phase_speed" in k.columns else np.full(len(k), np.nan)
+    scale = f"Ω<sub>0</sub> = {w0.value:.4f} rad/s, {w0.source}"
+    b1 = draw(
+        "schluck",
+        f"Fig. schluck: 𝒜<sub>θ</sub> = sin(θ/2) and 𝒜<sub>ω</sub> = ω/(2Ω<sub>0</sub>) (eq. amplitudes, {scale})"
+        + (f", dashed: the {escape(str(model_name))} model" if model else "")
+        + "; below, the phase speed Φ = dφ/dt (eq. phasespeed). <b>Look for</b> the exchange between the two "
+        "amplitudes as energy decays (the OPA analogy of the paper) and the noise that the derivative propagates "
+        "into Φ.",
+        lambda: F.amplitudes_figure(k["t"], k["A_theta"], k["A_omega"], phase_speed, model=model), on_progress)
+    b2 = draw(
+        "nyquist",
+        "Fig. nyquist: the state (𝒜<sub>ω</sub>, 𝒜<sub>θ</sub>) against time in natural periods tΩ<sub>0</sub>/2π, "
+        f"data as points{f' and the {escape(str(model_name))} model as a line' if model else ''}: two 3-D views, the view "
+        "from above, and the normalised mechanical energy 𝒜² = 𝒜<sub>θ</sub>² + 𝒜<sub>ω</sub>² "
+        "(eq. amplitudesobservable). <b>Look for</b> the spiral's regularity and, in launched runs, the phase "
+        "velocity changing sign when θ passes π.",
+        lambda: F.nyquist_figure(k["t"], k["A_theta"], k["A_omega"], w0.value, model=model), on_progress)
+    return Section("schluck", t1, (b1,)), Section("nyquist", t2, (b2,))
+
+
+def count_figures(run: RunData) -> int:
+    """How many figures :func:`build_run_page` will try to draw (for a progress bar)."""
+    n = 0
+    if run.get("track") is not None:
+        n += 2
+    if run.get("kinematics") is not None:
+        n += 3 + (1 if run.get("fit") is not None else 0) + 2
+    curves = len(D.model_curves(run))
+    n += curves + (1 if curves else 0)
+    return n
+
+
+def build_run_page(run: RunData, *, config: Config, provenance: dict[str, Any],
+                   on_progress: Progress | None = None) -> Page:
+    """The whole run report as a :class:`Page`.
+
+    Parameters
+    ----------
+    run : RunData
+        What the run folder holds.
+    config : Config
+        Fallbacks for facts the artifacts do not record (Savitzky–Golay window...).
+    provenance : dict
+        Embedded in the page (version, inputs, time).
+    on_progress : callable, optional
+        Called with 1 after each figure.
+    """
+    sections = [_overview(run), _tracking(run, on_progress), *_kinematics(run, config, on_progress),
+                *_fits(run, on_progress), *_amplitudes(run, on_progress),
+                T.parameters_section(run), discovery_section(run),
+                T.provenance_section(run, provenance.get("inputs", {}))]
+    subtitle = f"pendtrack run report · {run.run_dir}"
+    return Page(title=f"Run {run.name}", subtitle=subtitle, sections=tuple(sections), provenance=provenance,
+                kind="run")
