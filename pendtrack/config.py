@@ -40,7 +40,11 @@ class TrackConfig:
     search_margin_px: int = 48  # half-size margin of the search window around the prediction [px]
     min_score: float = 0.6  # acceptance threshold on the normalised match score (Tracker's automark)
     evolution_rate: float = 0.0  # template evolution per frame, 0 as in the paper
-    track_in_corrected: bool = False  # True: remap every frame and track in the corrected image
+    quick_margin_px: int = 6  # margin of the first, small search window when the prediction is reliable [px]
+    refine: str = "quadratic"  # sub-pixel refinement: quadratic (3x3 score quadric) | centroid
+    max_coast_frames: int = 30  # frames without an ok match before every frame is searched whole
+    min_contrast_ratio: float = 0.3  # matched patch contrast must be within [r, 1/r] of the template's
+    track_in_corrected: bool = False  # True: track in lens-corrected frames (only the search window is remapped)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -77,6 +81,13 @@ class FitConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class RenderConfig:
+    """The synthetic video (`pendtrack render`): camera, apparatus, motion, image quality.
+
+    World lengths in m, measured in the pendulum's plane from the axle (x right, y down);
+    the model's parameters come from ``params`` over the renderer's defaults
+    (:data:`pendtrack.render.physics.DEFAULT_PARAMS`, Omega0 from the two-cuboid formula).
+    """
+
     width: int = 1280  # [px]
     height: int = 720  # [px]
     fps: float = PAPER_FPS  # [1/s]
@@ -96,8 +107,52 @@ class RenderConfig:
     noise_sigma: float = 2.0  # sensor noise, standard deviation in 8-bit levels
     crf: int = 20  # H.264 constant rate factor
     two_cuboid_x: float = 1.48  # X = lambda0/lambda1 of eq. consistencycheck
-    two_cuboid_l0_m: float = 0.54  # l0 of eq. consistencycheck [m]
+    two_cuboid_l0_m: float = 0.54  # l0 of eq. consistencycheck; also axle to the bar's far end [m]
     gravity: float = 9.81  # [m/s^2]
+    params: tuple[str, ...] = ()  # model parameters "NAME=VALUE"; the others take the model's defaults
+    tile_length_m: float = 0.0  # l1, tile length; 0 = no tile [m]
+    alley: bool = False  # draw the alley's slabs near the bottom of the swing
+    trial: int = 1  # trial number, last digit of the run code
+    camera_offset_m: tuple[float, ...] = (0.05, 0.02)  # optical-axis point minus axle, in the plane, x right, y down [m]
+    lens_projection: str = "equisolid"  # the camera's fisheye projection (see pendtrack.lens.fisheye)
+    lens_fov_deg: float = 120.0  # the camera's diagonal field of view [deg]
+    blur_step_px: float = 0.4  # max spot travel between motion-blur sub-samples [px]
+    illumination_gradient: float = 0.3  # relative brightness change across the half diagonal [1]
+    vignetting: float = 0.35  # relative darkening at the image corners [1]
+    x264_preset: str = "veryfast"  # libx264 speed preset
+
+
+@dataclass(frozen=True, kw_only=True)
+class BatchConfig:
+    """`pendtrack batch`: many run-coded videos, on local processes or a Dask cluster."""
+
+    scheduler: str = "processes"  # processes (local worker processes) | tcp://HOST:PORT of a Dask scheduler
+    workers: int = 0  # local worker processes; 0 = all cores (ignored with a Dask scheduler)
+    threads_per_worker: int = 1  # BLAS/OpenMP/numba/OpenCV threads inside each worker
+    inner_workers: int = 1  # [fit] and [discover] workers inside a batch run: 1 = no nested pools
+    extensions: tuple[str, ...] = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts")  # video files, any case
+    recursive: bool = False  # also look for videos in sub-folders of FOLDER
+    omega0_models: tuple[str, ...] = ("fractional", "classic", "opa")  # Omega0 for the two-cuboid fit: first fitted
+    report: bool = True  # write DIR/report.html (pendtrack.stages.report) at the end
+
+
+@dataclass(frozen=True, kw_only=True)
+class DiscoverConfig:
+    """`pendtrack discover`: find what the baseline misses, extend it, measure the gain."""
+
+    baseline: str = "standard"  # model the search starts from (any registered model)
+    effects: tuple[str, ...] = ()  # catalogue effects to try; () = every one the baseline lacks
+    train_fraction: float = 0.6  # held-out test: fit this first share of the record, predict the rest [1]
+    delta_bic_max: float = -10.0  # keep an effect only if BIC drops below this (Kass-Raftery "very strong")
+    heldout_z_min: float = 3.0  # ... and its held-out gain exceeds noise by this many standard deviations
+    max_effects: int = 3  # at most this many effects are added
+    n_starts_baseline: int = 4  # multi-start fits of the baseline (data-derived starts)
+    n_starts: int = 1  # random starts around the warm start per candidate fit (+ the scaled starts)
+    workers: int = 0  # processes for the candidate fits; 0 = all cores
+    analysis_rate_hz: float = 60.0  # faster records are decimated to >= this rate; 0 keeps every sample [1/s]
+    n_replicas: int = 6  # model + noise replicas calibrating the kinematic diagnostics
+    near_turning_fraction: float = 0.25  # "near a turning point": |omega| below this share of the peak [1]
+    seed: int = 0  # seed of the fits' starts and of the replicas' noise
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,6 +167,8 @@ class Config:
     models: ModelsConfig = field(default_factory=ModelsConfig)
     fit: FitConfig = field(default_factory=FitConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
+    batch: BatchConfig = field(default_factory=BatchConfig)
+    discover: DiscoverConfig = field(default_factory=DiscoverConfig)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict (tuples become lists) for JSON provenance."""

@@ -1,0 +1,1 @@
+"""Lens models: Tracker-compatible fisheye correction of points and images (pure core)."""

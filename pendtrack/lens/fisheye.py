@@ -27,8 +27,12 @@ the circle ``rho = fixed_pixels`` does not move (95.3 deg for 120 deg / 48 %).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pendtrack.config import LensConfig
 
 PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 
@@ -157,3 +161,88 @@ class Fisheye:
     def distort_points(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Corrected pixel coordinates -> raw pixel coordinates (inverse of undistort_points)."""
         return self._radial(x, y, forward=False)
+
+
+def fisheye_from_config(lens: "LensConfig", *, width: int, height: int) -> Fisheye:
+    """The :class:`Fisheye` correction for one image size from a ``[lens]`` config section.
+
+    Parameters
+    ----------
+    lens : pendtrack.config.LensConfig
+        Projection, input diagonal field of view [deg] and fixed-pixel fraction.
+    width, height : int
+        Image size [px].
+    """
+    return Fisheye(width=width, height=height, projection=lens.projection, fov_deg=lens.fov_deg,
+                   fixed_pixels=lens.fixed_pixels)
+
+
+def local_scale(fisheye: Fisheye, x: float, y: float) -> float:
+    """Corrected px per raw px near raw point ``(x, y)``: square root of the Jacobian determinant."""
+    d = 0.5
+    cx, cy = fisheye.undistort_points(np.array([x, x + d, x]), np.array([y, y, y + d]))
+    det = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cx[2] - cx[0]) * (cy[1] - cy[0])
+    return float(np.sqrt(abs(det)) / d)
+
+
+def _disc_quadrature(n_r: int = 6, n_a: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points (u, v) and weights of a midpoint rule on the unit disc (weights sum to 1)."""
+    r_edges = np.sqrt(np.linspace(0.0, 1.0, n_r + 1))  # equal-area rings
+    r_mid = np.sqrt(0.5 * (r_edges[:-1] ** 2 + r_edges[1:] ** 2))
+    a = (np.arange(n_a) + 0.5) * 2 * np.pi / n_a
+    rr, aa = np.meshgrid(r_mid, a, indexing="ij")
+    w = np.full(rr.size, 1.0 / rr.size)
+    return (rr * np.cos(aa)).ravel(), (rr * np.sin(aa)).ravel(), w
+
+
+def raw_centroid_offset(fisheye: Fisheye, x: np.ndarray, y: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Offset of a disc's raw-image centroid from the raw image of its centre [raw px].
+
+    A uniform disc of ``radius`` [corrected px] centred at corrected ``(x, y)`` appears in
+    the raw (fisheye) frame as a slightly egg-shaped blob whose area centroid is not
+    ``distort_points(x, y)``: the lens' curvature shifts it by a second-order amount
+    (about 0.1 px for the paper's 13 px spot). Returns ``centroid - distort(centre)``.
+
+    Parameters
+    ----------
+    fisheye : Fisheye
+    x, y : array_like
+        Disc centres [corrected px].
+    radius : float
+        Disc radius [corrected px].
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if fisheye.projection == "none" or radius <= 0:
+        return np.zeros_like(x), np.zeros_like(y)
+    qu, qv, w = _disc_quadrature()
+    px = x[..., None] + radius * qu
+    py = y[..., None] + radius * qv
+    sx, sy = fisheye.distort_points(px, py)
+    h = 1e-3 * max(radius, 1.0)
+    ax, ay = fisheye.distort_points(px + h, py)
+    bx, by = fisheye.distort_points(px, py + h)
+    jac = np.abs((ax - sx) * (by - sy) - (bx - sx) * (ay - sy)) / (h * h)  # raw area per corrected area
+    wj = w * jac
+    total = wj.sum(axis=-1)
+    cx = (sx * wj).sum(axis=-1) / total
+    cy = (sy * wj).sum(axis=-1) / total
+    ox, oy = fisheye.distort_points(x, y)
+    return cx - ox, cy - oy
+
+
+def undistort_blob_centres(fisheye: Fisheye, x_raw: np.ndarray, y_raw: np.ndarray,
+                           radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Corrected centres of discs (radius [corrected px]) from their raw-image centroids [raw px].
+
+    Like :meth:`Fisheye.undistort_points`, but the point given is the centroid of the
+    marker's raw blob, not the image of its centre: the centroid offset
+    (:func:`raw_centroid_offset`) is removed first (two fixed-point iterations).
+    """
+    x_raw = np.asarray(x_raw, dtype=float)
+    y_raw = np.asarray(y_raw, dtype=float)
+    cx, cy = fisheye.undistort_points(x_raw, y_raw)
+    for _ in range(2):
+        ox, oy = raw_centroid_offset(fisheye, cx, cy, radius)
+        cx, cy = fisheye.undistort_points(x_raw - ox, y_raw - oy)
+    return cx, cy

@@ -1,0 +1,159 @@
+"""`track` stage: video -> track.parquet (marker centre per frame, raw and lens-corrected)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pendtrack.artifacts import Provenance, inputs_for, write_artifact
+from pendtrack.config import Config
+from pendtrack.errors import ConfigError, TrackingError, VideoError
+from pendtrack.lens.fisheye import (Fisheye, fisheye_from_config, local_scale, raw_centroid_offset,
+                                    undistort_blob_centres)
+from pendtrack.progress import progress_bar
+from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.track.colour import MarkerColour, parse_marker_colour
+from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
+from pendtrack.track.tracker import TrackParams, TrackResult, track_frames
+from pendtrack.video.reader import VideoReader
+
+CONFIG_SECTIONS = ("lens", "video", "track")
+MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a track
+DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.py measures both)
+DECODE_PREFETCH = 8  # decode this many frames ahead in a background thread (0: same thread)
+
+
+def track_params(config: Config) -> TrackParams:
+    """Core tracking parameters from the ``[track]`` section."""
+    tc = config.track
+    try:
+        return TrackParams(min_score=tc.min_score, search_margin_px=tc.search_margin_px,
+                           quick_margin_px=tc.quick_margin_px, evolution_rate=tc.evolution_rate,
+                           refine=tc.refine, max_coast_frames=tc.max_coast_frames,
+                           min_contrast_ratio=tc.min_contrast_ratio)
+    except ValueError as exc:
+        raise ConfigError(f"[track] {exc}") from None
+
+
+def _fisheye(config: Config, width: int, height: int) -> Fisheye:
+    try:
+        return fisheye_from_config(config.lens, width=width, height=height)
+    except ValueError as exc:
+        raise ConfigError(f"[lens] {exc}") from None
+
+
+def track_dataframe(result: TrackResult, fisheye: Fisheye, *, corrected: bool) -> pd.DataFrame:
+    """The track artifact's columns from a core result in raw or corrected coordinates.
+
+    Raw coordinates (``x_px``, ``y_px``) are the marker blob's centroid in the raw frame;
+    corrected ones (``x``, ``y``) the image of the marker's centre after lens correction.
+    The two differ by more than :meth:`Fisheye.undistort_points`: the lens shifts a round
+    marker's raw blob off the image of its centre by a second-order amount (~0.1 px for
+    the paper's spot), accounted for here (:func:`pendtrack.lens.fisheye.undistort_blob_centres`).
+    """
+    if corrected:
+        x, y = result.x, result.y
+        ox, oy = raw_centroid_offset(fisheye, x, y, result.radius)
+        x_px, y_px = fisheye.distort_points(x, y)
+        x_px, y_px = x_px + ox, y_px + oy
+    else:
+        x_px, y_px = result.x, result.y
+        radius_c = result.radius * local_scale(fisheye, result.detection.x, result.detection.y)
+        x, y = undistort_blob_centres(fisheye, x_px, y_px, radius_c)
+    return pd.DataFrame({
+        "frame": result.frame.astype(np.int64), "t": result.t.astype(float),
+        "x_px": np.asarray(x_px, float), "y_px": np.asarray(y_px, float),
+        "x": np.asarray(x, float), "y": np.asarray(y, float),
+        "score": result.score.astype(float), "ok": result.ok.astype(bool),
+    })
+
+
+def make_sampler(colour: MarkerColour, fisheye: Fisheye, *, corrected: bool) -> RawSampler:
+    """Corrected-frame sampler, or raw-frame sampler with a lens-warped template (plain if no lens)."""
+    if corrected:
+        return CorrectedSampler(colour, fisheye=fisheye)
+    if fisheye.projection == "none":
+        return RawSampler(colour, width=fisheye.width, height=fisheye.height)
+    return WarpedRawSampler(colour, fisheye=fisheye)
+
+
+def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force: bool = False,
+                progress: bool = True) -> StageOutput:
+    """Track the marker through ``video`` and write ``out_dir/track.parquet``.
+
+    Parameters
+    ----------
+    video : path
+        Input video.
+    out_dir : path
+        Output folder (created).
+    config : Config
+        Uses ``[lens]``, ``[video]`` and ``[track]``.
+    force : bool
+        Recompute even if the output is up to date.
+    progress : bool
+        Progress bar on stderr.
+
+    Returns
+    -------
+    StageOutput
+        ``facts``: frames, ok fraction, tracking rate [frames/s].
+
+    Raises
+    ------
+    VideoError
+        Missing, unreadable, empty or truncated video.
+    TrackingError
+        No marker in the first frame, or lost in more than half of the frames.
+    ConfigError
+        Invalid ``[lens]``/``[track]`` values.
+    """
+    video = Path(video)
+    if not video.is_file():
+        raise VideoError("file not found", path=video)
+    out = Path(out_dir) / "track.parquet"
+    sections = config.sections(*CONFIG_SECTIONS)
+    inputs = inputs_for(video)
+    if up_to_date((out,), "track", inputs=inputs, config=sections, force=force):
+        return StageOutput((out,), skipped=True)
+    try:
+        colour = parse_marker_colour(config.track.marker_color)
+    except ValueError as exc:
+        raise ConfigError(f"[track] {exc}") from None
+    params = track_params(config)
+    corrected = config.track.track_in_corrected
+    t0 = time.perf_counter()
+    with VideoReader(video, fps=config.video.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH) as reader:
+        info = reader.info
+        fisheye = _fisheye(config, info.width, info.height)
+        sampler = make_sampler(colour, fisheye, corrected=corrected)
+        with progress_bar(info.n_frames or None, "track", enabled=progress) as advance:
+            try:
+                result = track_frames(reader, sampler=sampler, params=params, roi=config.track.roi,
+                                      on_progress=advance)
+            except TrackingError as exc:
+                raise TrackingError(str(exc), path=video) from None
+    elapsed = time.perf_counter() - t0
+    n = int(result.frame.size)
+    if result.ok_fraction < MIN_OK_FRACTION:
+        raise TrackingError(f"marker lost in {n - int(result.ok.sum())} of {n} frames "
+                            f"(best scores below min_score {params.min_score}); try --roi or --min-score",
+                            path=video)
+    df = track_dataframe(result, fisheye, corrected=corrected)
+    extra = {
+        "video": info.to_dict(),
+        "coordinates": "corrected" if corrected else "raw",
+        "sampler": type(sampler).__name__,
+        "lens_output_fov_deg": fisheye.output_fov_deg,
+        "decode_threads": DECODE_THREADS,
+        "decode_prefetch": DECODE_PREFETCH,
+        "tracking_fps": n / elapsed if elapsed > 0 else None,
+        **result.to_dict(),
+    }
+    write_artifact(df, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
+                                                             extra=extra))
+    facts = {"frames": n, "ok_fraction": result.ok_fraction, "fps": extra["tracking_fps"]}
+    return StageOutput((out,), facts=facts)

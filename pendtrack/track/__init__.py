@@ -1,0 +1,5 @@
+"""Marker tracking core: colour features, detection, template matching, circle fit, angle.
+
+Pure functions and small classes over numpy arrays; no files, no printing. Image
+coordinates in px, x right, y down, pixel centres at integer coordinates.
+"""

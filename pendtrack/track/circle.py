@@ -1,0 +1,145 @@
+"""Robust circle fit: the pendulum's axle from the marker's path.
+
+An algebraic fit (Kasa, or Pratt's gradient-weighted one, which is unbiased on short arcs)
+starts a geometric least-squares refinement of the radial residuals
+``hypot(x - xc, y - yc) - r`` with a robust loss (``soft_l1``), so a few bad points do
+not pull the centre. Units are those of the points (px).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, optimize
+
+
+@dataclass(frozen=True)
+class CircleFit:
+    """A fitted circle.
+
+    Attributes
+    ----------
+    xc, yc : float
+        Centre [px].
+    radius : float
+        [px].
+    rms : float
+        Root mean square of the radial residuals of all points [px].
+    mad : float
+        Median absolute radial residual [px].
+    n : int
+        Number of points.
+    arc_span : float
+        Angle covered by the points as seen from the centre [rad], 2 pi for a full circle.
+    """
+
+    xc: float
+    yc: float
+    radius: float
+    rms: float
+    mad: float
+    n: int
+    arc_span: float
+
+    def to_dict(self) -> dict[str, float | int]:
+        return {"xc": self.xc, "yc": self.yc, "radius": self.radius, "rms_px": self.rms, "mad_px": self.mad,
+                "n": self.n, "arc_span_deg": float(np.degrees(self.arc_span))}
+
+
+def _check(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    if x.shape != y.shape:
+        raise ValueError("x and y must have the same length")
+    keep = np.isfinite(x) & np.isfinite(y)
+    x, y = x[keep], y[keep]
+    if x.size < 3:
+        raise ValueError("a circle needs at least 3 finite points")
+    return x, y
+
+
+def fit_circle_kasa(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Kasa's algebraic fit: least squares of ``x^2 + y^2 + D x + E y + F``; (xc, yc, r)."""
+    x, y = _check(x, y)
+    mx, my = x.mean(), y.mean()
+    u, v = x - mx, y - my
+    a = np.column_stack([u, v, np.ones_like(u)])
+    (d, e, f), *_ = np.linalg.lstsq(a, -(u * u + v * v), rcond=None)
+    xc, yc = -d / 2.0, -e / 2.0
+    return float(xc + mx), float(yc + my), float(np.sqrt(max(xc * xc + yc * yc - f, 0.0)))
+
+
+def fit_circle_pratt(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Pratt's algebraic fit (generalised eigenproblem); (xc, yc, r).
+
+    Minimises ``sum (A z + B x + C y + D)^2`` with ``z = x^2 + y^2`` subject to
+    ``B^2 + C^2 - 4 A D = 1``.
+    """
+    x, y = _check(x, y)
+    mx, my = x.mean(), y.mean()
+    u, v = x - mx, y - my
+    s = np.sqrt(np.mean(u * u + v * v)) or 1.0  # scale for conditioning
+    u, v = u / s, v / s
+    z = u * u + v * v
+    zm = np.column_stack([z, u, v, np.ones_like(u)])
+    m = zm.T @ zm / u.size
+    b = np.array([[0.0, 0, 0, -2], [0, 1, 0, 0], [0, 0, 1, 0], [-2, 0, 0, 0]])
+    w, vecs = linalg.eig(m, b)
+    w = np.real(w)
+    good = np.isfinite(w) & (w >= -1e-12)
+    if not good.any():
+        return fit_circle_kasa(x, y)
+    k = np.flatnonzero(good)[np.argmin(w[good])]
+    a_, b_, c_, d_ = np.real(vecs[:, k])
+    if abs(a_) < 1e-14:  # a straight line
+        return fit_circle_kasa(x, y)
+    xc, yc = -b_ / (2 * a_), -c_ / (2 * a_)
+    r = np.sqrt(max(b_ * b_ + c_ * c_ - 4 * a_ * d_, 0.0)) / (2 * abs(a_))
+    return float(xc * s + mx), float(yc * s + my), float(r * s)
+
+
+def arc_span(x: np.ndarray, y: np.ndarray, xc: float, yc: float) -> float:
+    """Angle [rad] covered by the points around ``(xc, yc)``: 2 pi minus the largest empty gap."""
+    ang = np.sort(np.arctan2(np.asarray(y) - yc, np.asarray(x) - xc))
+    if ang.size < 2:
+        return 0.0
+    gaps = np.diff(np.concatenate([ang, [ang[0] + 2 * np.pi]]))
+    return float(2 * np.pi - gaps.max())
+
+
+def fit_circle(x: np.ndarray, y: np.ndarray, *, loss: str = "soft_l1", f_scale: float = 1.0) -> CircleFit:
+    """Robust geometric circle fit started from Pratt's algebraic fit.
+
+    Parameters
+    ----------
+    x, y : array_like
+        Points [px]; non-finite ones are ignored.
+    loss : str
+        ``scipy.optimize.least_squares`` loss on the radial residuals.
+    f_scale : float
+        Residual size [px] beyond which the robust loss flattens.
+
+    Returns
+    -------
+    CircleFit
+    """
+    x, y = _check(x, y)
+    x0 = np.array(fit_circle_pratt(x, y))
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        return np.hypot(x - p[0], y - p[1]) - p[2]
+
+    def jac(p: np.ndarray) -> np.ndarray:
+        d = np.hypot(x - p[0], y - p[1])
+        d = np.where(d > 0, d, 1.0)
+        return np.column_stack([-(x - p[0]) / d, -(y - p[1]) / d, -np.ones_like(d)])
+
+    sol = optimize.least_squares(resid, x0, jac=jac, loss=loss, f_scale=f_scale, method="trf",
+                                 x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    xc, yc, r = (float(a) for a in sol.x)
+    if r < 0:
+        r = -r
+    res = np.hypot(x - xc, y - yc) - r
+    return CircleFit(xc=xc, yc=yc, radius=r, rms=float(np.sqrt(np.mean(res * res))),
+                     mad=float(np.median(np.abs(res))), n=int(x.size), arc_span=arc_span(x, y, xc, yc))

@@ -1,0 +1,150 @@
+"""Find the marker in one frame: by colour (whole frame) or inside a user-given ROI.
+
+Both return a :class:`Detection` in raw frame coordinates: the feature-weighted centroid of
+the marker's pixels, its equivalent radius and its contrast over the surroundings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pendtrack.track.colour import MarkerColour, from_direction
+from pendtrack.track.sampler import RawSampler
+
+MIN_CONTRAST = 12.0  # feature levels (8-bit) the marker must stand above its surroundings
+MIN_SIGMAS = 8.0  # ... and above this many robust standard deviations of the background
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A marker found in a frame.
+
+    Attributes
+    ----------
+    x, y : float
+        Centre [raw px], feature-weighted centroid.
+    radius : float
+        Radius of the disc with the marker's area [px].
+    contrast : float
+        Marker feature level minus background level [8-bit levels].
+    background : float
+        Background feature level.
+    colour : MarkerColour
+        Feature weights used (learned from the ROI in ROI mode).
+    """
+
+    x: float
+    y: float
+    radius: float
+    contrast: float
+    background: float
+    colour: MarkerColour
+
+    def to_dict(self) -> dict[str, object]:
+        return {"x": self.x, "y": self.y, "radius": self.radius, "contrast": self.contrast,
+                "background": self.background, "colour": self.colour.to_dict()}
+
+
+def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> Detection | None:
+    """The most marker-like compact blob of the frame, or None when nothing stands out.
+
+    Parameters
+    ----------
+    y, u, v : ndarray, uint8
+        4:2:0 planes of the frame.
+    colour : MarkerColour
+        Feature weights.
+
+    Notes
+    -----
+    On the half-resolution feature: background = median, noise = 1.4826 MAD of neighbour
+    differences / sqrt(2); the marker
+    must exceed the background by :data:`MIN_CONTRAST` levels and :data:`MIN_SIGMAS`
+    noise. Blobs above half the peak contrast are candidates; the one with the largest
+    integrated contrast among compact ones (filling >= 40 % of their bounding box, aspect
+    ratio <= 3, smaller than a quarter of the frame) wins, and is then refined at full resolution.
+    """
+    half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
+    bg = float(np.median(half))
+    # noise from neighbour differences, blind to smooth lighting gradients
+    sigma = 1.4826 * float(np.median(np.abs(np.diff(half, axis=1)))) / np.sqrt(2) + 1e-6
+    peak = float(half.max())
+    if peak - bg < max(MIN_CONTRAST, MIN_SIGMAS * sigma):
+        return None
+    thr = bg + 0.5 * (peak - bg)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((half > thr).astype(np.uint8), connectivity=8)
+    hh, hw = half.shape
+    best, best_mass = -1, 0.0
+    for k in range(1, n):
+        x, yb, w, h, area = stats[k]
+        if w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h:
+            continue
+        mass = float((half[labels == k] - thr).sum())
+        if mass > best_mass:
+            best, best_mass = k, mass
+    if best < 0:
+        return None
+    x, yb, w, h, _ = stats[best]
+    # refine at full resolution in a window around the blob (half-res sample i at 2i + 0.5)
+    pad = max(w, h) + 4
+    x0, y0 = max(2 * (x - pad), 0), max(2 * (yb - pad), 0)
+    x1, y1 = min(2 * (x + w + pad), y.shape[1]), min(2 * (yb + h + pad), y.shape[0])
+    return _refine(RawSampler(colour, width=y.shape[1], height=y.shape[0]).window(y, u, v, x0, y0, x1 - x0, y1 - y0),
+                   x0, y0, colour)
+
+
+def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection | None:
+    """Centroid of the brightest blob of a feature window; ``(x0, y0)`` its frame offset."""
+    bg = float(np.median(np.concatenate([f[0], f[-1], f[:, 0], f[:, -1]])))
+    peak = float(np.percentile(f, 99.5))
+    if peak - bg <= 0:
+        return None
+    thr = bg + 0.5 * (peak - bg)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((f > thr).astype(np.uint8), connectivity=8)
+    if n < 2:
+        return None
+    k = 1 + int(np.argmax([(f[labels == i] - thr).sum() for i in range(1, n)]))
+    area = float(stats[k, cv2.CC_STAT_AREA])
+    radius = float(np.sqrt(area / np.pi))
+    # weights: contrast over the background inside the blob grown by 2 px (soft edges count)
+    grown = cv2.dilate((labels == k).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    wgt = np.where(grown, np.clip(f - bg, 0, None), 0.0)
+    yy, xx = np.indices(f.shape)
+    total = float(wgt.sum())
+    cx, cy = float((wgt * xx).sum() / total), float((wgt * yy).sum() / total)
+    contrast = float(np.median(f[labels == k])) - bg
+    return Detection(x0 + cx, y0 + cy, radius, contrast, bg, colour)
+
+
+def marker_in_roi(y: np.ndarray, u: np.ndarray, v: np.ndarray, roi: tuple[int, int, int, int]) -> Detection | None:
+    """The marker inside a rectangle ``(x, y, w, h)`` [raw px], its colour learned from the ROI.
+
+    The feature direction is the mean Y, Cb, Cr of the ROI's central disc (radius 0.3 of the
+    smaller side) minus that of its 2-px outer frame: whatever makes the marker differ from
+    what surrounds it (dark on pale, pink on grey, ...).
+
+    Returns None when the ROI has no contrast.
+    """
+    x0, y0, w, h = (int(a) for a in roi)
+    h_img, w_img = y.shape
+    x0, y0 = max(x0, 0), max(y0, 0)
+    w, h = min(w, w_img - x0), min(h, h_img - y0)
+    if w < 5 or h < 5:
+        return None
+    planes = []
+    for k, (wy, wu, wv) in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
+        probe = MarkerColour(f"c{k}", wy, wu, wv)
+        planes.append(RawSampler(probe, width=w_img, height=h_img).window(y, u, v, x0, y0, w, h))
+    yy, xx = np.indices((h, w))
+    core = (xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2 <= (0.3 * min(w, h)) ** 2
+    frame = np.zeros((h, w), bool)
+    frame[:2], frame[-2:], frame[:, :2], frame[:, -2:] = True, True, True, True
+    d = [float(p[core].mean() - p[frame].mean()) for p in planes]
+    if np.sqrt(sum(c * c for c in d)) < 0.5 * 12.0:
+        return None
+    colour = from_direction("roi", *d)
+    f = sum(np.float32(wt) * p for wt, p in zip((colour.wy, colour.wu, colour.wv), planes))
+    return _refine(np.asarray(f, np.float32), x0, y0, colour)

@@ -1,0 +1,1 @@
+"""Video I/O edges: decoding (reader) and H.264 encoding (writer)."""

@@ -1,0 +1,325 @@
+"""Decode a video into raw 4:2:0 planes with presentation timestamps (PyAV).
+
+Conventions
+-----------
+Frames come as :class:`YuvFrame`: the luma plane ``y`` (H, W) and the chroma planes ``u``
+(Cb) and ``v`` (Cr) (ceil(H/2), ceil(W/2)), uint8 views into the decoder's buffers (no copy,
+no colour conversion: converting a whole 720p frame to BGR costs more than tracking it).
+Pixel centres are at integer coordinates, x right, y down.
+
+Time ``t`` [s] is the frame's presentation timestamp (``pts * time_base``) minus the first
+frame's, so variable frame rates survive; a positive ``fps`` override gives ``index / fps``.
+Frames without a timestamp fall back to the container's average rate.
+
+Every problem a user can cause (missing file, not a video, no frames, truncated file, a
+decoding error) raises :class:`pendtrack.errors.VideoError` naming the file.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import av
+import numpy as np
+
+from pendtrack.errors import VideoError
+
+log = logging.getLogger(__name__)
+
+_PLANAR_420 = ("yuv420p", "yuvj420p")
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What the container says about its first video stream.
+
+    Attributes
+    ----------
+    path : Path
+    width, height : int
+        Frame size [px].
+    n_frames : int
+        Frames declared by the container (0 when it does not say).
+    fps : float
+        Average frame rate [1/s] (0 when unknown).
+    codec : str
+    pix_fmt : str
+        Decoded pixel format (frames in other formats are converted to yuv420p).
+    """
+
+    path: Path
+    width: int
+    height: int
+    n_frames: int
+    fps: float
+    codec: str
+    pix_fmt: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {"path": str(self.path), "width": self.width, "height": self.height, "n_frames": self.n_frames,
+                "fps": self.fps, "codec": self.codec, "pix_fmt": self.pix_fmt}
+
+
+class YuvFrame:
+    """One decoded frame as 4:2:0 planes.
+
+    Attributes
+    ----------
+    index : int
+        0-based decode (presentation) order.
+    t : float
+        Time [s] since the first frame.
+    y, u, v : ndarray, uint8
+        Luma (H, W) and chroma Cb, Cr (ceil(H/2), ceil(W/2)) planes; views into the
+        decoder's buffer, valid while this object lives (do not write to them).
+    """
+
+    __slots__ = ("index", "t", "y", "u", "v", "_frame")
+
+    def __init__(self, index: int, t: float, y: np.ndarray, u: np.ndarray, v: np.ndarray,
+                 frame: av.VideoFrame | None = None) -> None:
+        self.index = index
+        self.t = t
+        self.y = y
+        self.u = u
+        self.v = v
+        self._frame = frame
+
+    def bgr(self) -> np.ndarray:
+        """The whole frame as a BGR uint8 image (H, W, 3): slow, for single frames only."""
+        import cv2
+
+        h, w = self.y.shape
+        if h % 2 or w % 2:
+            raise ValueError("bgr() needs an even frame size")
+        i420 = np.concatenate([self.y, self.u.reshape(-1, w), self.v.reshape(-1, w)], axis=0)
+        return cv2.cvtColor(i420, cv2.COLOR_YUV2BGR_I420)
+
+
+def _plane(plane: av.video.plane.VideoPlane, h: int, w: int) -> np.ndarray:
+    buf = np.frombuffer(plane, dtype=np.uint8)
+    return buf.reshape(-1, plane.line_size)[:h, :w]
+
+
+def frame_planes(frame: av.VideoFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, av.VideoFrame]:
+    """Y, U, V views of a decoded frame (converted to yuv420p first if it is in another format)."""
+    if frame.format.name not in _PLANAR_420:
+        frame = frame.reformat(format="yuv420p")
+    h, w = frame.height, frame.width
+    ch, cw = (h + 1) // 2, (w + 1) // 2
+    p = frame.planes
+    return _plane(p[0], h, w), _plane(p[1], ch, cw), _plane(p[2], ch, cw), frame
+
+
+def _open(path: Path) -> av.container.InputContainer:
+    if not path.exists():
+        raise VideoError("file not found", path=path)
+    if not path.is_file():
+        raise VideoError("not a file", path=path)
+    try:
+        container = av.open(str(path), mode="r")
+    except av.error.FFmpegError as exc:
+        raise VideoError(f"not a readable video ({_reason(exc)})", path=path) from None
+    if not container.streams.video:
+        container.close()
+        raise VideoError("no video stream", path=path)
+    return container
+
+
+def _reason(exc: BaseException) -> str:
+    return getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+
+
+def _info(path: Path, stream: av.video.stream.VideoStream) -> VideoInfo:
+    cc = stream.codec_context
+    rate = stream.average_rate or stream.base_rate or stream.guessed_rate
+    fmt = cc.format.name if cc.format is not None else ""
+    return VideoInfo(path=path, width=int(cc.width), height=int(cc.height), n_frames=int(stream.frames or 0),
+                     fps=float(rate) if rate else 0.0, codec=cc.name, pix_fmt=fmt)
+
+
+def probe_video(path: str | Path) -> VideoInfo:
+    """Open a video, read its header and close it; raises :class:`VideoError` if unreadable."""
+    path = Path(path)
+    container = _open(path)
+    try:
+        info = _info(path, container.streams.video[0])
+    finally:
+        container.close()
+    if info.width < 1 or info.height < 1:
+        raise VideoError("video stream has no frame size", path=path)
+    return info
+
+
+class VideoReader:
+    """Iterate over a video's frames as :class:`YuvFrame` (a context manager).
+
+    Parameters
+    ----------
+    path : path
+        Any container/codec FFmpeg decodes.
+    fps : float
+        0: time from presentation timestamps; > 0: ``t = index / fps`` [s].
+    threads : bool
+        Let FFmpeg decode with frame/slice threads (``thread_type = "AUTO"``); False
+        decodes on one thread (``thread_count = 1``).
+    prefetch : int
+        If > 0, decode in a background thread up to this many frames ahead of the
+        consumer, so decoding overlaps the consumer's work on another core (FFmpeg
+        releases the GIL while decoding). Frames and errors arrive in the same order.
+
+    Raises
+    ------
+    VideoError
+        On open (missing, not a video, no video stream), during iteration (decoding error),
+        and at the end of the iteration (no frames; fewer frames than the container
+        declares, i.e. a truncated file).
+    """
+
+    def __init__(self, path: str | Path, *, fps: float = 0.0, threads: bool = False, prefetch: int = 0) -> None:
+        self.path = Path(path)
+        if fps < 0:
+            raise ValueError("fps must be >= 0")
+        self._fps = fps
+        self._prefetch = int(prefetch)
+        self._container = _open(self.path)
+        self._stream = self._container.streams.video[0]
+        if threads:
+            self._stream.thread_type = "AUTO"
+        else:
+            self._stream.thread_count = 1
+        self.info = _info(self.path, self._stream)
+        self.n_decoded = 0
+        self._prefetcher: _Prefetcher | None = None
+
+    def __enter__(self) -> "VideoReader":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop a prefetching thread, then close the container."""
+        if self._prefetcher is not None:
+            self._prefetcher.close()
+            self._prefetcher = None
+        self._container.close()
+
+    def __iter__(self) -> Iterator[YuvFrame]:
+        if self._prefetch > 0:
+            if self._prefetcher is not None:
+                self._prefetcher.close()
+            self._prefetcher = _Prefetcher(self._frames(), self._prefetch)
+            return iter(self._prefetcher)
+        return self._frames()
+
+    def _frames(self) -> Iterator[YuvFrame]:
+        stream = self._stream
+        fps_override = self._fps
+        avg_rate = self.info.fps
+        t_first: float | None = None
+        index = 0
+        decoder = self._container.decode(stream)
+        while True:
+            try:
+                frame = next(decoder)
+            except StopIteration:
+                break
+            except av.error.FFmpegError as exc:
+                raise VideoError(f"truncated or corrupt: decoding failed after {index} frames ({_reason(exc)})",
+                                 path=self.path) from None
+            if fps_override > 0:
+                t = index / fps_override
+            else:
+                pts_time = frame.time
+                if pts_time is None:
+                    if avg_rate <= 0:
+                        raise VideoError("frames have no timestamps and the frame rate is unknown; pass --fps",
+                                         path=self.path)
+                    pts_time = index / avg_rate
+                if t_first is None:
+                    t_first = pts_time
+                t = pts_time - t_first
+            y, u, v, frame = frame_planes(frame)
+            self.n_decoded = index + 1
+            yield YuvFrame(index, t, y, u, v, frame)
+            index += 1
+        self._check_complete(index)
+
+    def _check_complete(self, n: int) -> None:
+        if n == 0:
+            raise VideoError("no video frames", path=self.path)
+        declared = self.info.n_frames
+        if declared and n < declared:
+            missing = declared - n
+            if missing > max(2, declared // 100):
+                raise VideoError(f"truncated: decoded {n} of the {declared} frames the container declares",
+                                 path=self.path)
+            log.warning("%s: decoded %d of %d declared frames", self.path, n, declared)
+
+
+_END = object()
+
+
+class _Prefetcher:
+    """Run a frame iterator in a daemon thread, ``depth`` items ahead; re-raise its exception in the consumer."""
+
+    def __init__(self, frames: Iterator[YuvFrame], depth: int) -> None:
+        self._frames = frames
+        self._q: queue.Queue = queue.Queue(maxsize=depth)
+        self._stop = threading.Event()
+        self._worker = threading.Thread(target=self._produce, name="pendtrack-decode", daemon=True)
+        self._worker.start()
+
+    def _put(self, item: object) -> bool:
+        while not self._stop.is_set():
+            try:
+                self._q.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _produce(self) -> None:
+        try:
+            for item in self._frames:
+                if not self._put(item):
+                    return
+            self._put(_END)
+        except BaseException as exc:  # noqa: BLE001 - handed to the consumer
+            self._put(exc)
+
+    def __iter__(self) -> Iterator[YuvFrame]:
+        try:
+            while True:
+                item = self._q.get()
+                if item is _END:
+                    return
+                if isinstance(item, BaseException):
+                    raise item
+                yield item  # type: ignore[misc]
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Stop the decoding thread and wait for it (before the container may be closed)."""
+        self._stop.set()
+        while self._worker.is_alive():
+            try:
+                self._q.get_nowait()
+            except queue.Empty:
+                self._worker.join(timeout=0.05)
+
+
+def read_frame(path: str | Path, index: int = 0) -> YuvFrame:
+    """One frame (default the first) of a video, decoded from the start; a copy that outlives the file."""
+    with VideoReader(path) as reader:
+        for frame in reader:
+            if frame.index == index:
+                return YuvFrame(frame.index, frame.t, frame.y.copy(), frame.u.copy(), frame.v.copy())
+    raise VideoError(f"has no frame {index}", path=path)

@@ -1,0 +1,238 @@
+"""Tracking core on synthetic arrays: colours, detection, template matching, the tracker loop."""
+
+import numpy as np
+import pytest
+
+from pendtrack.errors import TrackingError
+from pendtrack.track.colour import MarkerColour, parse_marker_colour, rgb_to_ycbcr
+from pendtrack.track.detect import find_marker, marker_in_roi
+from pendtrack.track.match import match_template, quadratic_peak, weighted_centroid
+from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
+from pendtrack.track.tracker import TrackParams, track_frames
+from pendtrack.lens.fisheye import Fisheye
+from pendtrack.video.reader import YuvFrame
+from pendtrack.video.writer import bgr_to_i420
+
+PINK = (180, 105, 255)  # BGR
+
+
+def disc(h, w, cx, cy, r, ss=4, blur=(0.0, 0.0), nsub=1):
+    """Anti-aliased disc coverage; optional motion blur ``blur`` = (dx, dy) over ``nsub`` sub-positions."""
+    out = np.zeros((h, w))
+    reach = r + 0.5 * max(abs(blur[0]), abs(blur[1])) + 2
+    x0, x1 = max(int(cx - reach), 0), min(int(cx + reach) + 2, w)
+    y0, y1 = max(int(cy - reach), 0), min(int(cy + reach) + 2, h)
+    if x1 <= x0 or y1 <= y0:
+        return out
+    yy, xx = np.mgrid[y0:y1, x0:x1].astype(float)
+    o = (np.arange(ss) + 0.5) / ss - 0.5
+    acc = np.zeros(xx.shape)
+    for k in range(nsub):
+        f = (k + 0.5) / nsub - 0.5 if nsub > 1 else 0.0
+        px, py = cx + f * blur[0], cy + f * blur[1]
+        for a in o:
+            for b in o:
+                acc += (xx + a - px) ** 2 + (yy + b - py) ** 2 <= r * r
+    out[y0:y1, x0:x1] = acc / (ss * ss * nsub)
+    return out
+
+
+def yuv_frame(bgr, index=0, t=0.0):
+    h, w = bgr.shape[:2]
+    i420 = bgr_to_i420(bgr)
+    y = i420[:h]
+    u = i420[h:h + h // 4].reshape(h // 2, w // 2)
+    v = i420[h + h // 4:].reshape(h // 2, w // 2)
+    return YuvFrame(index, t, y, u, v)
+
+
+def scene(h, w, cx, cy, r=9.0, colour=PINK, wall=(150, 160, 165), gradient=0.2, noise=2.0, rng=None, **kw):
+    base = np.array(wall, float) * (1 + gradient * np.linspace(-1, 1, w))[None, :, None]
+    base = np.broadcast_to(base, (h, w, 3)).copy()
+    if cx is not None:
+        cov = disc(h, w, cx, cy, r, **kw)[..., None]
+        base = base * (1 - cov) + np.array(colour, float) * (base[..., :1] / wall[0]) * cov
+    if noise and rng is not None:
+        base += rng.normal(0, noise, base.shape)
+    return np.clip(base, 0, 255).astype(np.uint8)
+
+
+# --- colours -------------------------------------------------------------------------------
+
+def test_named_and_hex_colours():
+    pink = parse_marker_colour("pink")
+    assert pink.wy == 0 and pink.wv > 0.9 and pink.wu > 0  # mostly Cr, a little Cb
+    assert parse_marker_colour("dark") == MarkerColour("dark", -1.0, 0.0, 0.0)
+    blue = parse_marker_colour("blue")
+    assert blue.wu > 0.9 and blue.wv < 0
+    assert parse_marker_colour("#FF69B4").wv > 0.9  # hot pink, as a hex colour
+    assert parse_marker_colour("#202020") == MarkerColour("#202020", -1.0, 0.0, 0.0)  # grey -> luma, dark
+    assert parse_marker_colour("#f0f0f0").wy == 1.0  # pale -> luma, bright
+    for bad in ("purple-ish", "#12345", "#GGGGGG", ""):
+        with pytest.raises(ValueError):
+            parse_marker_colour(bad)
+
+
+def test_ycbcr_of_primaries():
+    assert rgb_to_ycbcr(255, 255, 255) == pytest.approx((255, 128, 128), abs=1e-3)
+    y, cb, cr = rgb_to_ycbcr(255, 0, 0)
+    assert (y, cb, cr) == pytest.approx((76.245, 84.97, 255.5), abs=0.01)
+
+
+# --- sub-pixel peak and matching -------------------------------------------------------------
+
+def test_quadratic_peak_of_an_exact_quadric():
+    dx, dy = 0.3, -0.2
+    yy, xx = np.mgrid[-1:2, -1:2].astype(float)
+    s = 1 - 0.5 * (xx - dx) ** 2 - 0.1 * (xx - dx) * (yy - dy) - 0.3 * (yy - dy) ** 2
+    assert quadratic_peak(s) == pytest.approx((dx, dy), abs=1e-12)
+    flat = np.ones((3, 3))
+    assert quadratic_peak(flat) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("cx, cy", [(30.0, 30.0), (30.37, 29.81), (31.5, 28.25)])
+def test_match_template_finds_a_blob_to_a_few_hundredths_px(cx, cy):
+    template = disc(31, 31, 15.0, 15.0, 8.0).astype(np.float32)
+    window = disc(61, 61, cx, cy, 8.0).astype(np.float32) * 50 + 10  # brightness/contrast do not matter
+    m = match_template(window, template)
+    assert m.score > 0.95  # the template is sampled on another sub-pixel grid
+    # quadric fit on a correlation peak of a sharp disc: bias below ~0.05 px
+    assert (m.x, m.y) == pytest.approx((cx, cy), abs=0.05)
+    assert match_template(window[:20, :20], template) is None
+
+
+def test_weighted_centroid():
+    win = disc(41, 41, 20.3, 19.6, 7.0).astype(np.float32) * 40 + 5
+    c = weighted_centroid(win, 20.0, 20.0, 12.0, 5.0, 1.0)
+    assert c == pytest.approx((20.3, 19.6), abs=0.02)  # 4x4 supersampled edge
+    assert weighted_centroid(np.zeros((9, 9), np.float32), 4, 4, 3, 0, 0.5) is None
+
+
+# --- detection -----------------------------------------------------------------------------
+
+def test_find_marker_by_colour_and_not_when_absent():
+    rng = np.random.default_rng(0)
+    f = yuv_frame(scene(240, 320, 201.3, 77.6, 10.0, rng=rng))
+    det = find_marker(f.y, f.u, f.v, parse_marker_colour("pink"))
+    assert det is not None
+    assert (det.x, det.y) == pytest.approx((201.3, 77.6), abs=0.1)
+    assert det.radius == pytest.approx(10.0, abs=1.0) and det.contrast > 20
+    empty = yuv_frame(scene(240, 320, None, None, rng=rng))
+    assert find_marker(empty.y, empty.u, empty.v, parse_marker_colour("pink")) is None
+
+
+def test_marker_in_roi_learns_a_dark_ball():
+    rng = np.random.default_rng(1)
+    f = yuv_frame(scene(120, 160, 80.4, 60.2, 8.0, colour=(40, 40, 40), wall=(200, 205, 210), rng=rng))
+    det = marker_in_roi(f.y, f.u, f.v, (66, 46, 30, 30))
+    assert det is not None and det.colour.wy < -0.9  # darker than the surroundings
+    assert (det.x, det.y) == pytest.approx((80.4, 60.2), abs=0.1)
+    assert marker_in_roi(f.y, f.u, f.v, (5, 5, 20, 20)) is None  # plain wall
+
+
+# --- the tracker loop ----------------------------------------------------------------------
+
+def swing(n, *, w=320, h=240, pivot=(160.0, 40.0), arm=150.0, amp=1.2, blur_frac=0.25, hide=(), jump=None,
+          seed=0):
+    """Frames of a pink spot on an arc (motion-blurred), and the true centres."""
+    rng = np.random.default_rng(seed)
+    frames, truth = [], []
+    for i in range(n):
+        th = amp * np.cos(2 * np.pi * i / 60)
+        om = -amp * 2 * np.pi / 60 * np.sin(2 * np.pi * i / 60)  # rad/frame
+        cx, cy = pivot[0] + arm * np.sin(th), pivot[1] + arm * np.cos(th)
+        if jump is not None and i >= jump:
+            cx, cy = cx + 60, cy - 20  # the marker jumps: prediction useless
+        blur = (arm * np.cos(th) * om * blur_frac, -arm * np.sin(th) * om * blur_frac)
+        visible = i not in hide
+        img = scene(h, w, cx if visible else None, cy, 9.0, rng=rng, blur=blur, nsub=6)
+        frames.append(yuv_frame(img, i, i / 120))
+        truth.append((cx, cy))
+    return frames, np.array(truth)
+
+
+def raw_sampler(w=320, h=240):
+    return RawSampler(parse_marker_colour("pink"), width=w, height=h)
+
+
+def test_tracks_a_blurred_swinging_spot_to_a_tenth_of_a_pixel():
+    frames, truth = swing(90)
+    res = track_frames(frames, sampler=raw_sampler(), params=TrackParams())
+    assert res.ok.all() and (res.score > 0.9).all()
+    err = np.hypot(res.x - truth[:, 0], res.y - truth[:, 1])
+    # synthetic, uncompressed chroma: ~0.03 px rms; 0.1 px leaves room for 4:2:0 rounding
+    assert np.sqrt(np.mean(err**2)) < 0.1 and err.max() < 0.25
+    np.testing.assert_allclose(res.t, np.arange(90) / 120)
+    assert res.searches["whole_frame"] == 0
+
+
+def test_hidden_marker_frames_are_not_ok_and_tracking_resumes():
+    frames, truth = swing(60, hide=range(20, 30))
+    res = track_frames(frames, sampler=raw_sampler(), params=TrackParams())
+    hidden = np.zeros(60, bool)
+    hidden[20:30] = True
+    np.testing.assert_array_equal(res.ok, ~hidden)
+    assert (res.score[hidden] < 0.6).all()
+    err = np.hypot(res.x - truth[:, 0], res.y - truth[:, 1])[~hidden]
+    assert err.max() < 0.25
+
+
+def test_reacquires_after_a_jump_by_whole_frame_search():
+    frames, truth = swing(40, jump=20)
+    res = track_frames(frames, sampler=raw_sampler(), params=TrackParams(search_margin_px=10))
+    assert res.ok[:20].all() and res.ok[21:].all()
+    assert res.searches["whole_frame"] >= 1
+    err = np.hypot(res.x - truth[:, 0], res.y - truth[:, 1])[res.ok]
+    assert err.max() < 0.25
+
+
+def test_evolution_rate_and_centroid_refinement_still_track():
+    frames, truth = swing(40)
+    for params in (TrackParams(evolution_rate=0.1), TrackParams(refine="centroid")):
+        res = track_frames(frames, sampler=raw_sampler(), params=params)
+        err = np.hypot(res.x - truth[:, 0], res.y - truth[:, 1])
+        assert res.ok.all() and err.max() < 0.4
+
+
+def test_corrected_sampler_tracks_in_corrected_coordinates():
+    frames, truth = swing(30, amp=0.6)
+    fe = Fisheye(width=320, height=240)
+    res = track_frames(frames, sampler=CorrectedSampler(parse_marker_colour("pink"), fisheye=fe),
+                       params=TrackParams())
+    ex, ey = fe.undistort_points(truth[:, 0], truth[:, 1])
+    # the synthetic spot is round in the raw frame, so its corrected image is slightly
+    # egg-shaped: allow a few tenths of a pixel
+    assert res.ok.all() and np.hypot(res.x - ex, res.y - ey).max() < 0.4
+
+
+def test_warped_template_in_raw_frames_matches_the_corrected_path():
+    frames, truth = swing(30, amp=0.6)
+    fe = Fisheye(width=320, height=240)
+    pink = parse_marker_colour("pink")
+    warped = track_frames(frames, sampler=WarpedRawSampler(pink, fisheye=fe), params=TrackParams())
+    corrected = track_frames(frames, sampler=CorrectedSampler(pink, fisheye=fe), params=TrackParams())
+    assert warped.ok.all() and corrected.ok.all()
+    # raw path: tracks the raw blob (here a true disc in the raw frame) to a tenth of a pixel
+    assert np.hypot(warped.x - truth[:, 0], warped.y - truth[:, 1]).max() < 0.15
+    cx, cy = fe.undistort_points(warped.x, warped.y)
+    assert np.hypot(cx - corrected.x, cy - corrected.y).max() < 0.4
+    evolving = track_frames(frames, sampler=WarpedRawSampler(pink, fisheye=fe),
+                            params=TrackParams(evolution_rate=0.2))
+    assert evolving.ok.all() and np.hypot(evolving.x - truth[:, 0], evolving.y - truth[:, 1]).max() < 0.4
+
+
+def test_no_marker_and_no_frames_raise():
+    rng = np.random.default_rng(0)
+    frames = [yuv_frame(scene(120, 160, None, None, rng=rng))]
+    with pytest.raises(TrackingError, match="no pink marker found in the first frame"):
+        track_frames(frames, sampler=raw_sampler(160, 120), params=TrackParams())
+    with pytest.raises(TrackingError, match="no frames"):
+        track_frames([], sampler=raw_sampler(), params=TrackParams())
+    with pytest.raises(TrackingError, match="roi"):
+        track_frames(frames, sampler=raw_sampler(160, 120), params=TrackParams(), roi=(1, 2, 3))
+
+
+def test_bad_params():
+    for kw in ({"min_score": 2.0}, {"search_margin_px": 0}, {"evolution_rate": 1.0}, {"refine": "magic"}):
+        with pytest.raises(ValueError):
+            TrackParams(**kw)

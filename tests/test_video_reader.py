@@ -1,0 +1,155 @@
+"""Video reader: planes, presentation timestamps (VFR), fps override and bad files."""
+
+import importlib.util
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+
+from pendtrack.errors import VideoError
+from pendtrack.video.reader import VideoReader, probe_video, read_frame
+
+_spec = importlib.util.spec_from_file_location("make_test_videos",
+                                               Path(__file__).parent / "data" / "make_test_videos.py")
+mtv = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(mtv)
+
+
+def _encode(path, frames, *, fps=30, pix_fmt="yuv420p", faststart=False):
+    options = {"movflags": "faststart"} if faststart else {}
+    c = av.open(str(path), "w", format="mp4", options=options)
+    s = c.add_stream("libx264", rate=fps)
+    s.height, s.width = frames[0].shape[:2]
+    s.pix_fmt = pix_fmt
+    for img in frames:
+        for p in s.encode(av.VideoFrame.from_ndarray(img, format="bgr24")):
+            c.mux(p)
+    for p in s.encode():
+        c.mux(p)
+    c.close()
+    return path
+
+
+def _grey_frames(n=12, h=48, w=64):
+    return [np.full((h, w, 3), 20 * i % 250, np.uint8) for i in range(n)]
+
+
+def test_planes_shapes_and_times(tmp_path):
+    video = _encode(tmp_path / "v.mp4", _grey_frames(), fps=30)
+    info = probe_video(video)
+    assert (info.width, info.height, info.n_frames, info.fps, info.codec) == (64, 48, 12, 30.0, "h264")
+    with VideoReader(video) as reader:
+        frames = [(f.index, f.t, f.y.shape, f.u.shape, f.v.shape, int(f.y.mean())) for f in reader]
+    assert [f[0] for f in frames] == list(range(12))
+    np.testing.assert_allclose([f[1] for f in frames], np.arange(12) / 30, atol=1e-9)
+    assert frames[0][2:5] == ((48, 64), (24, 32), (24, 32))
+    # grey levels survive (limited-range luma: 16 + 219/255 * level, H.264 rounding)
+    assert abs(frames[5][5] - (16 + 100 * 219 / 255)) < 3
+
+
+def test_bgr_of_a_frame_round_trips_colour(tmp_path):
+    img = np.zeros((48, 64, 3), np.uint8)
+    img[:] = (180, 105, 255)  # pink, BGR
+    video = _encode(tmp_path / "pink.mp4", [img] * 3)
+    f = read_frame(video, 1)
+    assert f.index == 1 and f.t == pytest.approx(1 / 30)
+    np.testing.assert_allclose(f.bgr()[24, 32].astype(float), (180, 105, 255), atol=6)
+
+
+def test_variable_frame_rate_times_survive(tmp_path):
+    times = np.cumsum(np.r_[0, np.tile([0.008, 0.009, 0.0085], 6)])  # irregular steps [s]
+    mtv.write_swing_video(tmp_path / "vfr.mp4", width=96, height=64, n_frames=times.size, fps=120.0,
+                          radius=5, pivot=(48, 5), arm=40, times=times)
+    with VideoReader(tmp_path / "vfr.mp4") as reader:
+        t = np.array([f.t for f in reader])
+    np.testing.assert_allclose(t, times - times[0], atol=1e-3)  # timestamps are stored in ms
+
+
+def test_fps_override(tmp_path):
+    video = _encode(tmp_path / "v.mp4", _grey_frames(5), fps=30)
+    with VideoReader(video, fps=120.0) as reader:
+        t = [f.t for f in reader]
+    np.testing.assert_allclose(t, np.arange(5) / 120)
+
+
+def test_other_pixel_formats_are_converted(tmp_path):
+    video = _encode(tmp_path / "v444.mp4", _grey_frames(3), pix_fmt="yuv444p")
+    with VideoReader(video) as reader:
+        shapes = [(f.y.shape, f.u.shape) for f in reader]
+    assert shapes == [((48, 64), (24, 32))] * 3
+
+
+def test_threaded_decoding_gives_the_same_frames(tmp_path):
+    video = _encode(tmp_path / "v.mp4", _grey_frames(8))
+    with VideoReader(video) as a, VideoReader(video, threads=True) as b:
+        for fa, fb in zip(a, b):
+            assert fa.t == fb.t and np.array_equal(fa.y, fb.y)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(VideoError, match=r"absent\.mp4: file not found"):
+        VideoReader(tmp_path / "absent.mp4")
+
+
+def test_not_a_video(tmp_path):
+    p = tmp_path / "notes.mp4"
+    p.write_text("this is not a video\n" * 50)
+    with pytest.raises(VideoError, match=r"notes\.mp4: not a readable video"):
+        VideoReader(p)
+
+
+def test_truncated_video_moov_at_end(tmp_path):
+    good = _encode(tmp_path / "v.mp4", _grey_frames(30))
+    bad = tmp_path / "cut.mp4"
+    bad.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    with pytest.raises(VideoError, match=r"cut\.mp4: not a readable video"):
+        VideoReader(bad)
+
+
+def test_truncated_video_moov_at_start(tmp_path):
+    # faststart: the header declares 40 frames, the data of the later ones is missing
+    frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(40)]
+    good = _encode(tmp_path / "v.mp4", frames, faststart=True)
+    bad = tmp_path / "cut.mp4"
+    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.6)])
+    with pytest.raises(VideoError, match=r"cut\.mp4: truncated"):
+        with VideoReader(bad) as reader:
+            for _ in reader:
+                pass
+
+
+def test_zero_frame_video(tmp_path):
+    # a valid header (moov first) whose media data is gone: a video stream without frames
+    good = _encode(tmp_path / "v.mp4", _grey_frames(10), faststart=True)
+    data = good.read_bytes()
+    bad = tmp_path / "empty.mp4"
+    bad.write_bytes(data[: data.find(b"mdat") + 4])
+    with pytest.raises(VideoError, match=r"empty\.mp4: no video frames"):
+        with VideoReader(bad) as reader:
+            for _ in reader:
+                pass
+
+
+def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
+    video = _encode(tmp_path / "v.mp4", _grey_frames(20))
+    with VideoReader(video) as a, VideoReader(video, prefetch=3) as b:
+        fa = [(f.index, f.t, f.y.copy()) for f in a]
+        fb = [(f.index, f.t, f.y.copy()) for f in b]
+    assert [(i, t) for i, t, _ in fa] == [(i, t) for i, t, _ in fb]
+    assert all(np.array_equal(x, y) for (_, _, x), (_, _, y) in zip(fa, fb))
+    # an error in the decoding thread reaches the consumer
+    frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(40)]
+    good = _encode(tmp_path / "fs.mp4", frames, faststart=True)
+    bad = tmp_path / "cut.mp4"
+    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.6)])
+    with pytest.raises(VideoError, match="truncated"):
+        with VideoReader(bad, prefetch=4) as reader:
+            for _ in reader:
+                pass
+    # leaving early (consumer error) stops the thread before the container closes
+    with pytest.raises(RuntimeError):
+        with VideoReader(video, prefetch=2) as reader:
+            for f in reader:
+                if f.index == 3:
+                    raise RuntimeError("consumer gave up")
