@@ -1,0 +1,16 @@
+"""Batches of run-coded videos: names, resuming, executors, summary and the two-cuboid check.
+
+* :mod:`pendtrack.batch.runcode` parses run codes (``06na5``) and lists a folder's videos;
+* :mod:`pendtrack.batch.resume` writes and checks each run's ``done.json`` marker;
+* :mod:`pendtrack.batch.worker` is what runs in a worker (the per-run job, thread limits);
+* :mod:`pendtrack.batch.executor` runs tasks on local processes or a Dask cluster;
+* :mod:`pendtrack.batch.summary` builds summary.parquet/csv from the run artifacts;
+* :mod:`pendtrack.batch.twocuboid` fits eq. consistencycheck to Omega0(l1).
+
+The stage that ties them together is :func:`pendtrack.stages.batch.batch_stage`. Nothing
+heavy is imported here.
+"""
+
+from pendtrack.batch.runcode import RunCode, RunCodeError, parse_run_code
+
+__all__ = ["RunCode", "RunCodeError", "parse_run_code"]
