@@ -1,0 +1,54 @@
+"""`pendtrack fit KINEMATICS --model NAME [--model NAME2 ...] --out DIR`."""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import click
+
+from pendtrack.cli.common import CommonArgs, common_options
+
+
+def _fmt(x: Any, spec: str) -> str:
+    return "n/a" if x is None else format(x, spec)
+
+
+@click.command("fit")
+@click.argument("kinematics_file", metavar="KINEMATICS", type=click.Path(dir_okay=False))
+@click.option("--model", "models", multiple=True,
+              help="Model to fit (repeat for several): standard, classic, opa, fractional, inertial. "
+                   "Default: [fit] models of the config (classic, opa, fractional).")
+@click.option("--cost", type=click.Choice(["xi2", "theta"]), default=None,
+              help="xi2: the paper's Xi^2 on A_theta, A_omega; theta: least squares on theta.")
+@click.option("--starts", "n_starts", type=int, default=None, help="Number of random starts (paper: 150).")
+@click.option("--seed", type=int, default=None, help="Seed of the start draws.")
+@click.option("--workers", type=int, default=None, help="Processes for the starts; 0 = all cores.")
+@common_options()
+def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_starts: int | None, seed: int | None,
+        workers: int | None, common: CommonArgs) -> None:
+    """Fit physical models to KINEMATICS (kinematics.parquet) -> OUT/fit.json, fit_<model>.json, fit.parquet.
+
+    Exits 1 (after writing the files) if a fit did not converge.
+    """
+    from pendtrack.stages.fit import fit_stage
+
+    values = {"cost": cost, "n_starts": n_starts, "seed": seed, "workers": workers}
+    given = {k: v for k, v in values.items() if v is not None}
+    config = common.config.replace("fit", **given) if given else common.config
+    res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None, force=common.force,
+                    progress=common.progress)
+    if res.skipped:
+        click.echo(f"{res.path} is up to date")
+    for name, f in (res.facts.get("models") or {}).items():
+        state = "converged" if f.get("converged") else "NOT CONVERGED"
+        click.echo(f"{name}: {state}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
+                   f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
+                   f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s, "
+                   f"BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
+    if not res.skipped:
+        click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
+    failed = res.facts.get("not_converged") or []
+    if failed:
+        click.echo(f"warning: {', '.join(failed)} did not converge (see the fit_<model>.json 'message')", err=True)
+        sys.exit(1)

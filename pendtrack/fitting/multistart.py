@@ -1,0 +1,337 @@
+"""Multi-start local least squares over a growing time window (the paper's 150 starts).
+
+The paper minimised Xi^2 with simulated annealing (``amebsa``) from 150 random initial
+estimates. Here every start runs a bounded Levenberg-Marquardt fit with geodesic acceleration
+(:mod:`pendtrack.fitting.lm`) on the residual vector, which converges to the bottom of its
+basin in a few dozen to a few hundred simulations; the 150 starts then play the
+role annealing played: exploring basins, giving Xi^2_min and the paper's spread uncertainty.
+
+Phase slips
+-----------
+Over a 60 s record (~50 periods) a 1 % error in Omega0 is half a period of phase: the Xi^2
+landscape then has a local minimum every period. Each start therefore fits a *growing window*
+(:func:`window_ladder`): the first ~3 periods, then a window twice as long warm-started from
+the previous optimum, and so on up to the whole record. Omega0 is pinned to ~1e-3 by the
+first window, to ~1e-4 by the next ones, before the long record is seen.
+
+Starts run in parallel in worker processes (:class:`concurrent.futures.ProcessPoolExecutor`
+with the ``spawn`` context, safe with numba's threads); each task receives the pickled
+:class:`~pendtrack.fitting.problem.FitProblem` (plain arrays) and one start vector. Workers
+warm the simulator once (numba kernels load from their ``cache=True`` cache or compile).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendtrack.fitting.lm import levenberg_marquardt, sumsq
+from pendtrack.fitting.problem import FitProblem
+
+FINAL_TOL = 1e-8  # ftol/xtol on the whole window: a 0.01-0.03 standard-error change of a parameter
+RUNG_TOL = 1e-5  # on the shorter windows only the basin matters
+RUNG_ITERATIONS = 12  # Levenberg-Marquardt iterations per shorter window (enough to pin Omega0 and phase)
+FINAL_ITERATIONS = 100  # cap on the whole window
+SETTLED = 1e-6  # a budget-stopped fit counts as converged if its last 20 % gained less (relative cost):
+# with N ~ 1e4 samples that is a move of ~0.1 standard error, well below the statistical precision
+
+
+@dataclass(frozen=True)
+class StartOutcome:
+    """Where one start ended.
+
+    Attributes
+    ----------
+    index : int
+        Start number (0 is the data-derived estimate itself).
+    x0, x : ndarray
+        Initial and final fitted vectors (units of each parameter).
+    cost : float
+        Final cost on the whole window (Xi^2 [1] or mean squared angle residual [rad^2]).
+    success : bool
+        The final least-squares run ended on a convergence test (status > 0).
+    nfev : int
+        Residual evaluations over all windows, Jacobian ones included.
+    message : str
+        The final least-squares message.
+    """
+
+    index: int
+    x0: np.ndarray
+    x: np.ndarray
+    cost: float
+    success: bool
+    nfev: int
+    message: str
+
+
+def resolve_workers(workers: int) -> int:
+    """Number of processes: ``0`` means all cores [1]."""
+    if workers < 0:
+        raise ValueError("workers must be >= 0")
+    return workers or (os.cpu_count() or 1)
+
+
+def window_ladder(t_start: float, t_end: float, first_end: float) -> tuple[float, ...]:
+    """Ends of the growing windows: ``first_end``, then doubling lengths, then ``t_end`` [s].
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        The whole fit window [s].
+    first_end : float
+        End of the first window, typically three periods after ``t_start`` [s].
+    """
+    ends: list[float] = []
+    length = first_end - t_start
+    while length > 0 and t_start + length < t_start + 0.95 * (t_end - t_start):
+        ends.append(t_start + length)
+        length *= 2.0
+    ends.append(t_end)
+    return tuple(ends)
+
+
+def draw_starts(center: np.ndarray, half_width: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                n: int, seed: int) -> np.ndarray:
+    """Seeded start vectors uniform in ``center +- half_width``, inside the bounds.
+
+    Row 0 is ``center`` itself (the data-derived estimate), so one start always begins
+    from the estimates.
+
+    Returns
+    -------
+    ndarray, shape (n, p)
+    """
+    if n < 1:
+        raise ValueError("n_starts must be >= 1")
+    rng = np.random.default_rng(seed)
+    lo = np.maximum(center - half_width, lower)
+    hi = np.minimum(center + half_width, upper)
+    u = rng.uniform(size=(n, center.size))
+    starts = lo + u * (hi - lo)
+    starts[0] = center
+    return _inside(starts, lower, upper)
+
+
+def _inside(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Move points a hair inside the bounds (``trf`` needs strictly feasible starts)."""
+    span = np.where(np.isfinite(upper - lower), upper - lower, 1.0)
+    eps = 1e-9 * np.maximum(span, 1.0)
+    return np.clip(x, lower + eps, upper - eps)
+
+
+class _Budget(Exception):
+    """Raised inside the residual function when a window's evaluation budget is spent."""
+
+
+class _Tracker:
+    """Counts residual evaluations of a problem, remembers the best point, enforces a budget.
+
+    Its :meth:`jac` is the forward- (or, with ``central``, central-) difference Jacobian with the
+    problem's steps (:meth:`FitProblem.fd_steps`), evaluated through the same counter.
+    """
+
+    def __init__(self, problem: FitProblem, budget: int, *, central: bool = False) -> None:
+        self.problem = problem
+        self.budget = budget
+        self.central = central
+        self.calls = 0
+        self.best_x: np.ndarray | None = None
+        self.best_r: np.ndarray | None = None
+        self.best_cost = np.inf
+        self.best_at_80 = np.inf  # best cost after 80 % of the budget
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.calls >= self.budget:
+            raise _Budget
+        self.calls += 1
+        r = self.problem.residuals(x)
+        c = sumsq(r)
+        if c < self.best_cost:
+            self.best_cost, self.best_x, self.best_r = c, x.copy(), r
+        if self.calls == int(0.8 * self.budget):
+            self.best_at_80 = self.best_cost
+        return r
+
+    @property
+    def settled(self) -> bool:
+        """The last 20 % of the budget lowered the cost by less than ``SETTLED`` relative."""
+        return self.best_at_80 - self.best_cost <= SETTLED * self.best_cost
+
+    def jac(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        lo, hi = self.problem.lower, self.problem.upper
+        steps = self.problem.fd_steps(x)
+        cols = []
+        for j in range(x.size):
+            if self.central:
+                hp, hm = min(steps[j], hi[j] - x[j]), min(steps[j], x[j] - lo[j])
+                xp, xm = x.copy(), x.copy()
+                xp[j] += hp
+                xm[j] -= hm
+                cols.append((self(xp) - self(xm)) / (hp + hm))
+                continue
+            h = steps[j] if x[j] + steps[j] <= hi[j] else -min(steps[j], x[j] - lo[j])
+            xp = x.copy()
+            xp[j] += h
+            cols.append((self(xp) - r0) / h)
+        return np.column_stack(cols)
+
+
+def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float], *, index: int = 0,
+              max_nfev: int | None = None, central: bool = False) -> StartOutcome:
+    """Least squares from ``x0`` over each window of the ladder, warm-starting each from the last.
+
+    Levenberg-Marquardt with geodesic acceleration (:func:`pendtrack.fitting.lm.levenberg_marquardt`),
+    bounds by projection. The shorter windows only have to pin Omega0 and the phase, so their
+    evaluations are capped (``RUNG_ITERATIONS`` Jacobians' worth) and their tolerance is loose;
+    the whole window is fitted to ``FINAL_TOL``.
+
+    Parameters
+    ----------
+    problem : FitProblem
+        The problem on the whole window.
+    x0 : ndarray
+        Start vector.
+    window_ends : sequence of float
+        Ends of the successive windows [s]; the last should be ``problem.t_end``.
+    index : int
+        Start number, copied into the outcome.
+    max_nfev : int, optional
+        Cap on the whole window, in Jacobians' worth of evaluations (default ``FINAL_ITERATIONS``).
+    central : bool
+        Central-difference Jacobians (twice the simulations, more accurate slopes).
+
+    Returns
+    -------
+    StartOutcome
+    """
+    x = _inside(np.asarray(x0, dtype=float), problem.lower, problem.upper)
+    p = x.size
+    calls = 0
+    tracker = None
+    status, message = 0, ""
+    for k, end in enumerate(window_ends):
+        last = k == len(window_ends) - 1
+        sub = problem if last else problem.restrict(end)
+        if sub.n < 3 * p:
+            continue
+        tol = FINAL_TOL if last else RUNG_TOL
+        iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
+        tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central)
+        try:
+            res = levenberg_marquardt(tracker, tracker.jac, x, lower=problem.lower, upper=problem.upper,
+                                      ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
+            status, message = res.status, res.message
+        except _Budget:
+            if tracker.settled:
+                status, message = 5, f"cost settled (budget of {tracker.calls} evaluations spent)"
+            else:
+                status, message = 0, f"stopped after {tracker.calls} evaluations"
+        calls += tracker.calls
+        if tracker.best_x is None:
+            raise ValueError("least squares made no evaluation")  # programming error
+        x = tracker.best_x
+    if tracker is None or tracker.best_r is None:
+        raise ValueError("every window is too short for the number of parameters")
+    r = tracker.best_r
+    cost = sumsq(r)
+    return StartOutcome(index=index, x0=np.asarray(x0, dtype=float), x=x, cost=cost,
+                        success=status > 0, nfev=calls, message=message)
+
+
+def _warm(problem: FitProblem, x: np.ndarray) -> None:
+    """Worker initializer: one short simulation so the numba kernels are loaded or compiled."""
+    short = problem.restrict(problem.t_start + (20 + 2 * problem.observation.trim) * problem.h)
+    try:
+        short.residuals(x)
+    except Exception:  # noqa: BLE001 - warming is best effort; the real call reports errors
+        pass
+
+
+def _task(problem: FitProblem, x0: np.ndarray, window_ends: tuple[float, ...], index: int,
+          max_nfev: int | None) -> StartOutcome:
+    return local_fit(problem, x0, window_ends, index=index, max_nfev=max_nfev)
+
+
+Task = tuple[FitProblem, np.ndarray, Sequence[float]]
+
+
+def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None = None,
+              on_progress: Callable[[int], None] | None = None) -> list[StartOutcome]:
+    """Run :func:`local_fit` on ``(problem, x0, window_ends)`` tasks, in parallel when ``workers != 1``.
+
+    Parameters
+    ----------
+    tasks : sequence of (FitProblem, ndarray, sequence of float)
+        Each a problem (pickled to a worker: plain arrays only), a start vector and the
+        growing-window ladder [s].
+    workers : int
+        Processes; 0 = ``os.cpu_count()``, 1 = in this process.
+    max_nfev : int, optional
+        Cap on iterations per window.
+    on_progress : callable, optional
+        Called with 1 after each finished task.
+
+    Returns
+    -------
+    list of StartOutcome, in task order (``index`` = task number).
+    """
+    n_proc = min(resolve_workers(workers), len(tasks))
+    outcomes: list[StartOutcome] = []
+    if n_proc <= 1:
+        for i, (prob, x0, ends) in enumerate(tasks):
+            outcomes.append(local_fit(prob, x0, tuple(ends), index=i, max_nfev=max_nfev))
+            if on_progress:
+                on_progress(1)
+        return outcomes
+    ctx = multiprocessing.get_context("spawn")
+    with _single_threaded_children(), ProcessPoolExecutor(max_workers=n_proc, mp_context=ctx, initializer=_warm,
+                                                          initargs=(tasks[0][0], tasks[0][1])) as pool:
+        futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev)
+                   for i, (prob, x0, ends) in enumerate(tasks)]
+        for fut in as_completed(futures):
+            outcomes.append(fut.result())
+            if on_progress:
+                on_progress(1)
+    return sorted(outcomes, key=lambda o: o.index)
+
+
+THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def _single_threaded_children() -> Iterator[None]:
+    """Spawned workers start with one BLAS/OpenMP/numba thread each (one process per core already).
+
+    The variables are set in this process only while the pool starts its workers, then restored;
+    a value the user set is left alone.
+    """
+    saved = {k: os.environ.get(k) for k in THREAD_VARS}
+    for k in THREAD_VARS:
+        os.environ.setdefault(k, "1")
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def run_starts(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *, workers: int = 0,
+               max_nfev: int | None = None,
+               on_progress: Callable[[int], None] | None = None) -> list[StartOutcome]:
+    """Run :func:`local_fit` from every start (rows of ``starts``) over the ladder ``window_ends`` [s].
+
+    See :func:`run_tasks` for ``workers``, ``max_nfev`` and ``on_progress``.
+    """
+    ends = tuple(float(e) for e in window_ends)
+    return run_tasks([(problem, x0, ends) for x0 in starts], workers=workers, max_nfev=max_nfev,
+                     on_progress=on_progress)

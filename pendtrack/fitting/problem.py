@@ -1,0 +1,280 @@
+"""One output-error fitting problem: data on a window, a model, and the residual function.
+
+The fitted vector is the model's parameters (in ``model.param_names`` order) followed by the
+initial state ``theta0`` [rad] and ``omega0`` [rad/s] at the start of the fit window. The
+model is simulated on a uniform grid starting at the window's first sample, observed the way
+the data were (:class:`~pendtrack.fitting.cost.Observation`) and compared at the data samples.
+
+A :class:`FitProblem` holds only plain arrays, scalars and the model object, so it pickles
+cheaply into worker processes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from pendtrack.errors import PendtrackError
+from pendtrack.fitting.cost import Observation, residual_vector
+
+STATE_NAMES = ("theta0", "omega0")
+PENALTY = 10.0  # residual value returned where the simulation fails (cost >> any real Xi^2)
+FD_REL = 1e-5  # relative finite-difference step (see FitProblem.fd_steps)
+
+Simulator = Callable[..., Any]
+
+
+def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, t_start: float, theta0: float,
+                     omega0: float, memory_s: float, full_history: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The models package's unchecked hot path (no SimResult, no time-axis checks)."""
+    from pendtrack.models.simulate import memory_steps_for, simulate_packed
+
+    coeffs = model.pack(params)  # validates the physical ranges (ModelError)
+    mem = memory_steps_for(memory_s, h, full_history=full_history) if model.has_memory else -1
+    theta = np.empty(n)
+    omega = np.empty(n)
+    alpha = np.empty(n)
+    with np.errstate(all="ignore"):
+        simulate_packed(coeffs, n - 1, h, float(theta0), float(omega0), mem, theta, omega, alpha, t_start=t_start)
+    return theta, omega
+
+
+def parameter_bounds(model: Any, t_start: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of a model's parameters for the optimiser, in ``param_names`` order.
+
+    The physical ranges of :mod:`pendtrack.models` made usable: open bounds at 0 (``Omega0``,
+    ``p``, ``p_f``, ``beta``) and at 2 (``beta``) moved in by 1e-6, and ``t0`` of the
+    ``C4 omega/(t - t0)`` term kept at least 1 ms before the first simulated time.
+    """
+    lo = []
+    hi = []
+    for name in model.param_names:
+        a, b = (float(v) for v in model.bounds[name])
+        if name == "t0":
+            a, b = t_start - 1e4, t_start - 1e-3
+        if name in ("Omega0", "p", "p_f", "beta"):
+            a = max(a, 1e-6)
+        if name == "beta":
+            b = min(b, 2.0 - 1e-6)
+        lo.append(a)
+        hi.append(b)
+    return np.array(lo), np.array(hi)
+
+
+@dataclass(frozen=True, eq=False)
+class FitProblem:
+    """Data, model and options of one fit; :meth:`residuals` is what least squares minimises.
+
+    Attributes
+    ----------
+    model : object
+        A model from :mod:`pendtrack.models` (``name``, ``param_names``, ``bounds``).
+    t_start : float
+        Time of the initial state and of the first grid point [s].
+    h : float
+        Simulation step = data sampling interval [s].
+    n_grid : int
+        Number of grid points simulated.
+    index : ndarray of int
+        Grid index of every data sample used in the cost.
+    theta, omega : ndarray
+        Measured angle [rad] and angular velocity [rad/s] at those samples.
+    cost : str
+        ``"xi2"`` or ``"theta"`` (:mod:`pendtrack.fitting.cost`).
+    omega_scale : float
+        ``1/(2 Omega0_hat)`` [s/rad].
+    observation : Observation
+        How the data were filtered.
+    memory_s : float
+        Fractional-derivative memory passed to the simulator [s].
+    method : str
+        Simulator method (``"auto"``, ``"fast"``, ``"reference"``).
+    lower, upper : ndarray
+        Bounds of the fitted vector.
+    fixed : dict
+        Parameters held at a value (removed from the fitted vector).
+    simulator : callable or None
+        ``simulate(model, params, t, *, theta0, omega0, memory_s, method)``; None means the
+        models package's numba hot path (:func:`pendtrack.models.simulate_packed`).
+    full_history : bool
+        The Grunwald-Letnikov sum runs over the whole record instead of ``memory_s``.
+    typical : ndarray or None
+        Typical magnitude of each fitted parameter (sets finite-difference steps); None: from
+        the point itself with floors (1 rad for theta0, Omega0_hat for omega0).
+    """
+
+    model: Any
+    t_start: float
+    h: float
+    n_grid: int
+    index: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    cost: str
+    omega_scale: float
+    observation: Observation
+    memory_s: float
+    method: str
+    lower: np.ndarray
+    upper: np.ndarray
+    fixed: Mapping[str, float] = field(default_factory=dict)
+    simulator: Simulator | None = None
+    full_history: bool = False
+    typical: np.ndarray | None = None
+
+    # ---- names -------------------------------------------------------------------------
+    @property
+    def all_names(self) -> tuple[str, ...]:
+        """Model parameter names then the initial state, fixed ones included."""
+        return tuple(self.model.param_names) + STATE_NAMES
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the fitted vector (fixed parameters left out)."""
+        return tuple(n for n in self.all_names if n not in self.fixed)
+
+    @property
+    def n(self) -> int:
+        """Number of data samples in the cost."""
+        return int(self.index.size)
+
+    @property
+    def t(self) -> np.ndarray:
+        """Times of the data samples in the cost [s]."""
+        return self.t_start + self.h * self.index
+
+    @property
+    def t_end(self) -> float:
+        """Time of the last grid point [s]."""
+        return self.t_start + self.h * (self.n_grid - 1)
+
+    def full(self, x: np.ndarray) -> dict[str, float]:
+        """Every parameter by name (fitted vector plus fixed values)."""
+        values = dict(zip(self.names, (float(v) for v in x)))
+        values.update(self.fixed)
+        return {name: values[name] for name in self.all_names}
+
+    # ---- simulation --------------------------------------------------------------------
+    def grid(self) -> np.ndarray:
+        """The simulation's uniform time grid [s]."""
+        return self.t_start + self.h * np.arange(self.n_grid)
+
+    def simulate(self, x: np.ndarray, *, n_grid: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Simulate the model on the grid (optionally a longer one) and observe it.
+
+        Returns
+        -------
+        theta, omega : ndarray
+            Observed model angle [rad] and angular velocity [rad/s] on the grid; NaN-free
+            or an exception (:class:`FloatingPointError`) if the solution blew up.
+        """
+        p = self.full(x)
+        n = self.n_grid if n_grid is None else n_grid
+        params = {k: v for k, v in p.items() if k not in STATE_NAMES}
+        if self.simulator is None:
+            theta, omega = _simulate_packed(self.model, params, n, self.h, self.t_start, p["theta0"], p["omega0"],
+                                            self.memory_s, self.full_history)
+        else:
+            t = self.t_start + self.h * np.arange(n)
+            res = self.simulator(self.model, params, t, theta0=p["theta0"], omega0=p["omega0"],
+                                 memory_s=self.memory_s, method=self.method)
+            theta = np.asarray(res.theta, dtype=float)
+            omega = np.asarray(res.omega, dtype=float)
+        if theta.shape != (n,) or not (np.all(np.isfinite(theta)) and np.all(np.isfinite(omega))):
+            raise FloatingPointError("simulation did not return finite values on the grid")
+        return self.observation.apply(theta, omega, self.h)
+
+    def model_at_data(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Observed model angle [rad] and angular velocity [rad/s] at the data samples."""
+        theta, omega = self.simulate(x)
+        return theta[self.index], omega[self.index]
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """Residual vector (sum of squares = cost); a large constant where the model fails."""
+        try:
+            theta_m, omega_m = self.model_at_data(x)
+        except (PendtrackError, ValueError, ArithmeticError):
+            size = self.n * (2 if self.cost == "xi2" else 1)
+            return np.full(size, PENALTY / math.sqrt(self.n))
+        return residual_vector(theta_m, omega_m, self.theta, self.omega, cost=self.cost,
+                               omega_scale=self.omega_scale)
+
+    def cost_value(self, x: np.ndarray) -> float:
+        """The cost (Xi^2 [1] or mean squared angle residual [rad^2])."""
+        r = self.residuals(x)
+        return float(np.einsum("i,i->", r, r))
+
+    # ---- derivatives -------------------------------------------------------------------
+    def fd_steps(self, x: np.ndarray, rel: float | None = None) -> np.ndarray:
+        """Finite-difference step of each fitted parameter at ``x`` [parameter units].
+
+        ``rel * max(|x_j|, typical_j)``. Not smaller: the solvers' sgn(omega) handling and the
+        quarter-power friction make the residuals rough on scales below ~1e-6 relative (and
+        non-differentiable in omega0 at omega0 = 0), so tiny steps give noise, not slopes.
+        """
+        typ = np.abs(np.asarray(x, dtype=float))
+        if self.typical is not None:
+            typ = np.maximum(typ, self.typical)
+        floors = {"theta0": 1.0, "omega0": 0.5 / self.omega_scale, "t0": 1.0}
+        for j, name in enumerate(self.names):
+            typ[j] = max(typ[j], floors.get(name, 1e-12))
+        return (FD_REL if rel is None else rel) * typ
+
+    def jacobian(self, x: np.ndarray, *, r0: np.ndarray | None = None, central: bool = False,
+                 rel: float | None = None, steps: np.ndarray | None = None) -> np.ndarray:
+        """Finite-difference Jacobian of :meth:`residuals` at ``x`` (steps kept inside the bounds).
+
+        Forward differences (reusing ``r0 = residuals(x)`` if given) or, with ``central``,
+        central ones; steps :meth:`fd_steps` (``rel``) unless given; shape ``(m, p)``.
+        """
+        x = np.asarray(x, dtype=float)
+        steps = self.fd_steps(x, rel) if steps is None else np.asarray(steps, dtype=float)
+        if r0 is None and not central:
+            r0 = self.residuals(x)
+        cols = []
+        for j in range(x.size):
+            up = self.upper[j] - x[j] if self.upper.size else np.inf
+            down = x[j] - self.lower[j] if self.lower.size else np.inf
+            h = steps[j]
+            if central:
+                hp, hm = min(h, up), min(h, down)
+                if hp <= 0 and hm <= 0:
+                    raise ValueError(f"parameter {self.names[j]!r} has zero-width bounds")
+                xp, xm = x.copy(), x.copy()
+                xp[j] += hp
+                xm[j] -= hm
+                cols.append((self.residuals(xp) - self.residuals(xm)) / (hp + hm))
+            else:
+                if h > up:
+                    h = -min(h, down)
+                xp = x.copy()
+                xp[j] += h
+                cols.append((self.residuals(xp) - r0) / h)
+        return np.column_stack(cols)
+
+    # ---- windows -----------------------------------------------------------------------
+    def restrict(self, t_end: float) -> "FitProblem":
+        """The same problem on the shorter window ``[t_start, t_end]``."""
+        n_grid = min(self.n_grid, int(math.floor((t_end - self.t_start) / self.h + 1e-6)) + 1)
+        keep = self.index <= n_grid - 1 - self.observation.trim
+        if n_grid == self.n_grid:
+            return self
+        return replace(self, n_grid=n_grid, index=self.index[keep], theta=self.theta[keep],
+                       omega=self.omega[keep])
+
+    def with_fixed(self, fixed: Mapping[str, float]) -> "FitProblem":
+        """The same problem with some parameters held at given values."""
+        names = self.all_names
+        unknown = [k for k in fixed if k not in names]
+        if unknown:
+            raise ValueError(f"cannot fix unknown parameter {unknown[0]!r}")
+        merged = dict(self.fixed) | {k: float(v) for k, v in fixed.items()}
+        return replace(self, fixed=merged, lower=self._sub(self.lower, merged), upper=self._sub(self.upper, merged))
+
+    def _sub(self, arr: np.ndarray, merged: Mapping[str, float]) -> np.ndarray:
+        full = dict(zip(self.names, arr))
+        return np.array([full[n] for n in self.all_names if n not in merged])

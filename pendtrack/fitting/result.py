@@ -1,0 +1,230 @@
+"""The result of a fit: a frozen :class:`FitResult` whose :meth:`~FitResult.to_dict` is fit.json.
+
+fit.json of one model has exactly the issue's keys::
+
+    {"model", "params": {name: {"value", "stderr", "u_paper"}}, "xi2_min", "rms", "aic", "bic",
+     "n", "converged", "runtime_s", "seed"}
+
+plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u_paper} form),
+``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
+``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
+``stderr_bootstrap``, ``estimates``, ``covariance``,
+``start_costs``, ``message``. Non-finite numbers are written as ``null``.
+
+Information criteria
+--------------------
+``aic = n ln(xi2_min) + 2k`` and ``bic = n ln(xi2_min) + k ln(n)``, ``n`` samples and ``k`` fitted
+parameters (the initial state included): the Gaussian log-likelihood of the cost up to a
+constant. They compare models fitted to the *same* data with the *same* cost only, and, since the
+residuals are autocorrelated, their differences overstate the evidence by about ``n/n_eff``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pendtrack.errors import FitError
+
+STATE_NAMES = ("theta0", "omega0")
+
+
+def _num(x: Any) -> float | None:
+    """A JSON-safe float: None for NaN/inf/None."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class ParamEstimate:
+    """One fitted parameter.
+
+    Attributes
+    ----------
+    value : float
+        Best-fit value [the parameter's unit].
+    stderr : float
+        Statistical standard error (autocorrelation-consistent sandwich) [same unit]; NaN if
+        unavailable.
+    u_paper : float
+        The paper's eq. paramuncertain over the accepted starts [same unit].
+    u_region : float
+        Half-width of the region Xi^2 <= accept_ratio Xi^2_min (quadratic model) [same unit].
+    stderr_naive : float
+        Textbook ``s^2 (J^T J)^-1`` standard error, for comparison [same unit].
+    stderr_bootstrap : float
+        Block-bootstrap standard error [same unit]; NaN if not computed.
+    estimate : float
+        The data-derived initial estimate [same unit].
+    fixed : bool
+        Held at ``value`` (not fitted).
+    """
+
+    value: float
+    stderr: float = math.nan
+    u_paper: float = math.nan
+    u_region: float = math.nan
+    stderr_naive: float = math.nan
+    stderr_bootstrap: float = math.nan
+    estimate: float = math.nan
+    fixed: bool = False
+
+    def core(self) -> dict[str, float | None]:
+        return {"value": _num(self.value), "stderr": _num(self.stderr), "u_paper": _num(self.u_paper)}
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Best fit of one model to one record, with uncertainties.
+
+    Attributes
+    ----------
+    model : str
+        Model name.
+    params : mapping
+        Model parameter name -> :class:`ParamEstimate` (``model.param_names`` order).
+    initial_state : mapping
+        ``theta0`` [rad] and ``omega0`` [rad/s] at ``window[0]`` -> :class:`ParamEstimate`.
+    xi2_min : float
+        Minimum cost (Xi^2 [1] for ``cost="xi2"``, mean squared angle residual [rad^2] for ``"theta"``).
+    rms : float
+        Rms of ``theta - theta_model`` over the fitted samples [rad].
+    aic, bic : float
+        Information criteria (module docstring).
+    n : int
+        Samples in the cost.
+    converged : bool
+        Best start ended on a convergence test, covariance finite and the fit follows the
+        oscillation (rms below half the angle's standard deviation).
+    runtime_s : float
+        Wall time of the fit [s].
+    seed : int
+        Seed of the start draws.
+    cost : str
+        ``"xi2"`` or ``"theta"``.
+    window : tuple of float
+        ``(t_start, t_end)`` of the fitted samples [s].
+    omega0_hat : float
+        Model-free Omega0 that scales A_omega in Xi^2 [rad/s].
+    n_starts, n_accepted : int
+        Starts run; starts with cost <= accept_ratio * xi2_min.
+    accept_ratio : float
+        5/4 in the paper.
+    hac_lag : int
+        Bartlett lag of the sandwich covariance [samples].
+    covariance : ndarray
+        Sandwich covariance of the fitted vector, order ``fitted_names``.
+    fitted_names : tuple of str
+        Names of the fitted vector (model parameters then theta0, omega0, fixed ones left out).
+    start_costs : ndarray
+        Final cost of every start (start order).
+    memory_s : float
+        GL memory used [s].
+    full_history : bool
+        The GL sum ran over the whole record.
+    stderr_reliable : bool
+        False if the sandwich standard errors change by more than 30 % when the finite-difference
+        step grows 100-fold (a solver that is not smooth in the parameters): then prefer
+        ``u_paper`` or a bootstrap.
+    message : str
+        Why the fit did not converge, or the optimiser's last message, plus notes.
+    """
+
+    model: str
+    params: Mapping[str, ParamEstimate]
+    initial_state: Mapping[str, ParamEstimate]
+    xi2_min: float
+    rms: float
+    aic: float
+    bic: float
+    n: int
+    converged: bool
+    runtime_s: float
+    seed: int
+    cost: str = "xi2"
+    window: tuple[float, float] = (math.nan, math.nan)
+    omega0_hat: float = math.nan
+    n_starts: int = 0
+    n_accepted: int = 0
+    accept_ratio: float = 1.25
+    hac_lag: int = 0
+    covariance: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    fitted_names: tuple[str, ...] = ()
+    start_costs: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    memory_s: float = math.nan
+    full_history: bool = False
+    stderr_reliable: bool = True
+    message: str = ""
+
+    # ---- access --------------------------------------------------------------------------
+    @property
+    def values(self) -> dict[str, float]:
+        """Model parameter values by name (what :func:`pendtrack.models.simulate` takes)."""
+        return {k: v.value for k, v in self.params.items()}
+
+    @property
+    def theta0(self) -> float:
+        """Fitted initial angle at ``window[0]`` [rad]."""
+        return self.initial_state["theta0"].value
+
+    @property
+    def omega0(self) -> float:
+        """Fitted initial angular velocity at ``window[0]`` [rad/s]."""
+        return self.initial_state["omega0"].value
+
+    @property
+    def n_params(self) -> int:
+        """Number of fitted parameters, initial state included."""
+        return len(self.fitted_names)
+
+    def require_converged(self) -> "FitResult":
+        """Return self, or raise :class:`FitError` if the fit did not converge."""
+        if not self.converged:
+            raise FitError(f"fit of model '{self.model}' did not converge: {self.message}")
+        return self
+
+    # ---- serialisation -------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """fit.json content (see the module docstring)."""
+        all_params = {**self.params, **self.initial_state}
+        cov = np.asarray(self.covariance, dtype=float)
+        return {
+            "model": self.model,
+            "params": {k: v.core() for k, v in self.params.items()},
+            "xi2_min": _num(self.xi2_min),
+            "rms": _num(self.rms),
+            "aic": _num(self.aic),
+            "bic": _num(self.bic),
+            "n": int(self.n),
+            "converged": bool(self.converged),
+            "runtime_s": _num(self.runtime_s),
+            "seed": int(self.seed),
+            # extras
+            "initial_state": {k: v.core() for k, v in self.initial_state.items()},
+            "cost": self.cost,
+            "n_params": self.n_params,
+            "n_starts": int(self.n_starts),
+            "n_accepted": int(self.n_accepted),
+            "accept_ratio": float(self.accept_ratio),
+            "window": [_num(self.window[0]), _num(self.window[1])],
+            "omega0_hat": _num(self.omega0_hat),
+            "memory_s": _num(self.memory_s),
+            "full_history": bool(self.full_history),
+            "hac_lag": int(self.hac_lag),
+            "stderr_reliable": bool(self.stderr_reliable),
+            "u_region": {k: _num(v.u_region) for k, v in all_params.items()},
+            "stderr_naive": {k: _num(v.stderr_naive) for k, v in all_params.items()},
+            "stderr_bootstrap": {k: _num(v.stderr_bootstrap) for k, v in all_params.items()},
+            "estimates": {k: _num(v.estimate) for k, v in all_params.items()},
+            "fixed": [k for k, v in all_params.items() if v.fixed],
+            "covariance": {"names": list(self.fitted_names),
+                           "matrix": [[_num(x) for x in row] for row in cov.tolist()]},
+            "start_costs": [_num(c) for c in np.asarray(self.start_costs, dtype=float)],
+            "message": self.message,
+        }

@@ -1,0 +1,211 @@
+"""`fit` stage: kinematics.parquet -> fit_<model>.json (one per model), fit.json, fit.parquet.
+
+Files
+-----
+``fit_<model>.json``
+    One model's fit, exactly the issue's keys (:data:`pendtrack.artifacts.FIT_JSON_KEYS`) plus
+    extras (:mod:`pendtrack.fitting.result`).
+``fit.json``
+    With one model: the same record as ``fit_<model>.json``, so ``fit.json`` of a single-model
+    fit has exactly the issue's keys. With several models: a container
+    ``{"models": {name: record}, "files": {name: "fit_<name>.json"}, "selected": name,
+    "selected_by", "all_converged", "cross_model"}`` -- ``selected`` is the converged fit with
+    the lowest BIC (same data and cost for every model), ``cross_model`` the paper's relations
+    when classic and fractional were both fitted (:mod:`pendtrack.fitting.cross_model`).
+``fit.parquet``
+    ``t, theta, theta_model, omega_model, residual, model``: every model's simulated curves
+    (from the fitted initial state) against the data, stacked.
+
+A fit that did not converge is still written (``"converged": false``, with ``"message"``) so it
+can be inspected, and listed in the stage's ``facts["not_converged"]``; the CLI then exits 1.
+Fit files of models that an earlier run of this stage wrote and this one does not are removed.
+
+The data's Savitzky-Golay filter (window and order, from the kinematics artifact's
+provenance) is applied to the model as well (:class:`pendtrack.fitting.Observation`).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pendtrack.artifacts import (
+    FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, read_artifact, write_artifact, write_json_artifact,
+)
+from pendtrack.config import Config
+from pendtrack.errors import FitError
+from pendtrack.progress import progress_bar
+from pendtrack.stages import StageOutput, up_to_date
+
+log = logging.getLogger(__name__)
+
+PARQUET = SCHEMAS["fit"].filename
+COMBINED = "fit.json"
+CONTAINER_KEYS = ("models", "files", "selected", "all_converged")
+
+
+def model_json_name(model: str) -> str:
+    """File name of one model's fit record: ``fit_<model>.json`` (``+`` of composed names kept)."""
+    safe = "".join(c if c.isalnum() or c in "+-_." else "_" for c in model)
+    return f"fit_{safe}.json"
+
+
+def _observation(art: Any) -> Any:
+    """The data's Savitzky-Golay filter, from the kinematics provenance (None-filter if unknown)."""
+    from pendtrack.fitting import Observation
+
+    extra = dict(art.provenance.extra or {})
+    w, order = extra.get("window_points"), extra.get("order")
+    if w is None or order is None:
+        kin = dict(art.provenance.config or {}).get("kinematics") or {}
+        h = extra.get("h")
+        if not kin or h is None:
+            t = art.data["t"].to_numpy(float)
+            h = float(np.median(np.diff(t))) if t.size > 1 else None
+        if kin.get("savgol_window_s") is not None and h:
+            from pendtrack.kinematics import window_points
+
+            order = int(kin.get("savgol_order", 3))
+            w = window_points(float(kin["savgol_window_s"]), float(h), order)
+    if w is None or order is None:
+        log.warning("%s: no Savitzky-Golay window in the provenance; the model is compared unfiltered", art.path)
+        return Observation()
+    return Observation(savgol_window=int(w), savgol_order=int(order), smooth_theta=True)
+
+
+def _remove_stale(out_dir: Path, keep: set[str]) -> None:
+    """Delete fit_<model>.json files this stage wrote earlier for models not fitted now."""
+    for path in out_dir.glob("fit_*.json"):
+        if path.name in keep:
+            continue
+        try:
+            record = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(record, dict) and (record.get("provenance") or {}).get("stage") == "fit":
+            path.unlink(missing_ok=True)
+
+
+def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, models: tuple[str, ...] | None = None,
+              force: bool = False, progress: bool = True) -> StageOutput:
+    """Fit each model to a record; writes fit_<model>.json, fit.json and fit.parquet in ``out_dir``.
+
+    Parameters
+    ----------
+    kinematics : path
+        kinematics.parquet (t [s], theta [rad], omega [rad/s], alpha [rad/s^2], ok).
+    out_dir : path
+        Output folder (created).
+    config : Config
+        Uses ``[fit]`` (cost, starts, 5/4 rule, spread, seed, workers) and ``[models]`` (memory).
+    models : tuple of str, optional
+        Model names (registry names); default ``config.fit.models``.
+    force : bool
+        Refit even if the outputs are up to date.
+    progress : bool
+        Progress bar over the starts of each model (stderr).
+
+    Returns
+    -------
+    StageOutput
+        ``paths``: fit.json, fit.parquet, then the per-model files. ``facts``: ``models``
+        (per model: converged, xi2_min, rms, bic, Omega0, Omega0_stderr, runtime_s),
+        ``not_converged``, ``selected``, ``files``.
+
+    Raises
+    ------
+    ArtifactError
+        Missing or malformed kinematics file.
+    ModelError
+        Unknown model name.
+    FitError
+        Too few samples, none usable, no oscillation.
+    """
+    from pendtrack.fitting import cross_model_relations, fit_model, predict
+    from pendtrack.fitting.fitter import check_record
+    from pendtrack.fitting.result import _num
+    from pendtrack.models import get_model
+
+    kinematics = Path(kinematics)
+    out_dir = Path(out_dir)
+    names = tuple(models or config.fit.models)
+    if not names:
+        raise FitError("no model to fit", path=kinematics)
+    if len(set(names)) != len(names):
+        raise FitError(f"a model is listed twice: {', '.join(names)}", path=kinematics)
+    model_objs = {n: get_model(n) for n in names}  # unknown names fail before any work
+    art = read_artifact(kinematics, "kinematics")
+    inputs = inputs_for(kinematics)
+    sections: dict[str, Any] = {**config.sections("fit", "models"), "fitted_models": list(names)}
+    files = {n: model_json_name(n) for n in names}
+    paths = (out_dir / COMBINED, out_dir / PARQUET, *(out_dir / f for f in files.values()))
+    if up_to_date(paths, "fit", inputs=inputs, config=sections, force=force):
+        record = json.loads((out_dir / COMBINED).read_text(encoding="utf-8"))
+        facts = (record.get("provenance") or {}).get("extra") or {}
+        return StageOutput(paths, skipped=True, facts=facts)
+
+    df = art.data
+    t = df["t"].to_numpy(float)
+    theta = df["theta"].to_numpy(float)
+    omega = df["omega"].to_numpy(float)
+    alpha = df["alpha"].to_numpy(float)
+    ok = df["ok"].to_numpy(bool)
+    if t.size == 0:
+        raise FitError("the kinematics file has no samples", path=kinematics)
+    obs = _observation(art)
+    fc = config.fit
+    check_record(t, theta, omega, alpha=alpha, ok=ok, source=str(kinematics))  # fail before any progress bar
+    results = {}
+    for name in names:
+        model = model_objs[name]
+        with progress_bar(fc.n_starts, f"fit {name}", enabled=progress) as advance:
+            results[name] = fit_model(
+                model, t, theta, omega, alpha=alpha, ok=ok, cost=fc.cost, n_starts=fc.n_starts,
+                accept_ratio=fc.accept_ratio, start_spread=fc.start_spread, seed=fc.seed, workers=fc.workers,
+                memory_s=config.models.memory_s, full_history=config.models.full_history, observation=obs,
+                on_progress=advance, source=str(kinematics))
+
+    records = {n: r.to_dict() for n, r in results.items()}
+    converged = [n for n in names if results[n].converged]
+    selected = min(converged, key=lambda n: results[n].bic) if converged else None
+    cross = None
+    classic = next((n for n in names if n == "classic"), None)
+    fractional = next((n for n in names if n == "fractional"), None)
+    if classic and fractional:
+        cross = cross_model_relations(results[classic], results[fractional]).to_dict()
+    facts: dict[str, Any] = {
+        "models": {n: {"converged": r.converged, "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
+                       "Omega0": _num(r.params["Omega0"].value) if "Omega0" in r.params else None,
+                       "Omega0_stderr": _num(r.params["Omega0"].stderr) if "Omega0" in r.params else None,
+                       "runtime_s": _num(r.runtime_s), "message": r.message} for n, r in results.items()},
+        "not_converged": [n for n in names if not results[n].converged],
+        "selected": selected,
+        "files": dict(files),
+        "observation": {"savgol_window": obs.savgol_window, "savgol_order": obs.savgol_order},
+    }
+    prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=facts)
+
+    frames = []
+    for name, res in results.items():
+        th_m, om_m = predict(res, model_objs[name], t)
+        frames.append(pd.DataFrame({"t": t, "theta": theta, "theta_model": th_m, "omega_model": om_m,
+                                    "residual": theta - th_m, "model": np.full(t.size, name, dtype=object)}))
+    write_artifact(pd.concat(frames, ignore_index=True), out_dir / PARQUET, "fit", provenance=prov)
+    for name, rec in records.items():
+        write_json_artifact(rec, out_dir / files[name], required=FIT_JSON_KEYS, provenance=prov)
+    if len(names) == 1:
+        write_json_artifact(records[names[0]], out_dir / COMBINED, required=FIT_JSON_KEYS, provenance=prov)
+    else:
+        container = {"models": records, "files": files, "selected": selected,
+                     "selected_by": "lowest bic among converged fits (same data and cost)",
+                     "all_converged": len(converged) == len(names), "cross_model": cross}
+        write_json_artifact(container, out_dir / COMBINED, required=CONTAINER_KEYS, provenance=prov)
+    _remove_stale(out_dir, set(files.values()))
+    for n in facts["not_converged"]:
+        log.warning("%s: the %s fit did not converge: %s", kinematics, n, results[n].message)
+    return StageOutput(paths, facts=facts)

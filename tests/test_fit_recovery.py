@@ -1,0 +1,92 @@
+"""Recovery of known parameters from synthetic records, as the pipeline would see them.
+
+Each record: the model simulated at 120 Hz for 60 s from rest near the top, 3 mrad of white
+noise on theta, then :func:`pendtrack.kinematics.savgol_kinematics` (the paper's 25-frame
+cubic filter) for theta, omega and alpha. The fit receives only those arrays and the filter
+it used -- never the true parameters. Pass: Omega0 within 0.05 %, every other parameter
+within 3 reported standard errors (a 0.3 % two-sided chance per parameter if the standard
+errors are honest), the fit converged.
+
+One seed per model runs by default; 5 seeds per model are ``slow``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pendtrack.fitting import Observation, fit_model
+from pendtrack.kinematics import savgol_kinematics
+from pendtrack.models import get_model, simulate
+
+FS = 120.0
+SECONDS = 60.0
+NOISE = 3e-3  # [rad], the tracking noise of the issue
+THETA0 = 2.8  # released from rest near the top [rad]
+# a few starts (the stage uses 150): every start of classic and opa reaches the same minimum
+N_STARTS = {"classic": 2, "opa": 2, "fractional": 8}
+
+TRUTHS = {
+    # paper-like magnitudes (figs. fourparamsclassic, laserplots, paramsfractional)
+    "classic": {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": 2.0, "Ca": 0.01},
+    "opa": {"Omega0": 5.05, "C4": 3.25, "t0": -8.85, "C5": 1.57e-3},
+    "fractional": {"Omega0": 5.0, "G1": 2e-4, "G2": 2e-3, "beta": 0.5, "p_f": 2.5},
+}
+
+
+def record(name: str, seed: int, truth: dict[str, float]):
+    """(t, theta, omega, alpha, ok, observation) of a synthetic run of model ``name``."""
+    t = np.arange(int(SECONDS * FS)) / FS
+    sim = simulate(get_model(name), truth, t, theta0=THETA0, omega0=0.0)
+    theta = sim.theta + np.random.default_rng(1000 + seed).normal(0.0, NOISE, t.size)
+    kin = savgol_kinematics(t, theta, window_s=25 / FS, order=3)
+    obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=int(kin.info["order"]))
+    return kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, obs
+
+
+def check_recovery(name: str, seed: int, *, truth: dict[str, float] | None = None,
+                   fixed: dict[str, float] | None = None) -> None:
+    truth = truth or TRUTHS[name]
+    t, theta, omega, alpha, ok, obs = record(name, seed, truth)
+    res = fit_model(get_model(name), t, theta, omega, alpha=alpha, ok=ok, observation=obs, n_starts=N_STARTS[name],
+                    seed=seed, workers=0, fixed=fixed)
+    assert res.converged, res.message
+    truth = {k: v for k, v in truth.items() if k not in (fixed or {})}
+    w = res.params["Omega0"].value
+    assert abs(w / truth["Omega0"] - 1.0) < 5e-4, (name, seed, w)
+    z = {k: (res.params[k].value - v) / res.params[k].stderr for k, v in truth.items()}
+    assert all(abs(v) < 3.0 for k, v in z.items() if k != "Omega0"), (name, seed, z)
+    assert abs(res.theta0 - THETA0) < 3 * res.initial_state["theta0"].stderr + 1e-3, (name, seed, res.theta0)
+
+
+# The fractional model's quarter-power friction G1 |A|^(1/4) is evaluated at the grid points by
+# the predictor-corrector, so the simulated trajectory is not a smooth function of the
+# parameters (a cusp each time a grid omega passes 0). Every local optimiser then stops short
+# along the model's sloppy valley (beta, G2, p_f, Omega0), typically 5-20 standard errors from
+# the minimum, and the local standard errors are unreliable (flagged: stderr_reliable False).
+# With G1 = 0 the same data pipeline recovers the memory term as specified (test below).
+ROUGH = pytest.mark.xfail(reason="fractional solver not smooth in G1 (see README, 'Known limits')", strict=False)
+CASES = [pytest.param(n, marks=ROUGH) if n == "fractional" else n for n in sorted(TRUTHS)]
+MEMORY_ONLY = {**TRUTHS["fractional"], "G1": 0.0}
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_recovery_one_seed(name):
+    check_recovery(name, 0)
+
+
+def test_recovery_fractional_memory_term_with_g1_held_at_zero():
+    check_recovery("fractional", 0, truth=MEMORY_ONLY, fixed={"G1": 0.0})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("name", CASES)
+def test_recovery_five_seeds(name, seed):
+    check_recovery(name, seed)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_recovery_fractional_memory_term_five_seeds(seed):
+    check_recovery("fractional", seed, truth=MEMORY_ONLY, fixed={"G1": 0.0})
