@@ -7,7 +7,7 @@ SAMPLE ?= sample_videos/12na1.mp4
 DEMO_OUT ?= results/12na1
 PYTEST_ARGS ?=
 
-.PHONY: setup demo test test-fast bench clean
+.PHONY: setup demo test test-slow test-all bench clean
 
 setup: $(STAMP)
 
@@ -22,11 +22,15 @@ demo: setup
 	$(BIN)/pendtrack run $(SAMPLE) --out $(DEMO_OUT)
 	@echo "results in $(DEMO_OUT)/"
 
+# The default suite (under 15 minutes on 2 cores); tests marked `slow` run in test-slow.
 test: setup
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
-
-test-fast: setup
 	$(BIN)/python -m pytest -m "not slow" $(PYTEST_ARGS)
+
+test-slow: setup
+	$(BIN)/python -m pytest -m slow $(PYTEST_ARGS)
+
+test-all: setup
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 bench: setup
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done

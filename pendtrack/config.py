@@ -145,8 +145,9 @@ class DiscoverConfig:
     train_fraction: float = 0.6  # held-out test: fit this first share of the record, predict the rest [1]
     delta_bic_max: float = -10.0  # keep an effect only if BIC drops below this (Kass-Raftery "very strong")
     heldout_z_min: float = 3.0  # ... and its held-out gain exceeds noise by this many standard deviations
+    heldout_min_gain: float = 0.01  # ... and is at least this share of the held-out RMS [1]
     max_effects: int = 3  # at most this many effects are added
-    n_starts_baseline: int = 4  # multi-start fits of the baseline (data-derived starts)
+    n_starts_baseline: int = 2  # multi-start fits of the baseline (data-derived starts, each polished)
     n_starts: int = 1  # random starts around the warm start per candidate fit (+ the scaled starts)
     workers: int = 0  # processes for the candidate fits; 0 = all cores
     analysis_rate_hz: float = 60.0  # faster records are decimated to >= this rate; 0 keeps every sample [1/s]

@@ -26,6 +26,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "kinematics": ("pendtrack.cli.kinematics_cmd", "kinematics", "Derivatives and initial analysis -> kinematics.parquet."),
     "fit": ("pendtrack.cli.fit_cmd", "fit", "Fit physical models -> fit.json + fit.parquet."),
     "run": ("pendtrack.cli.run_cmd", "run", "Whole pipeline on a video into an output folder."),
+    "batch": ("pendtrack.cli.batch_cmd", "batch", "Whole pipeline over a folder of run-coded videos, resumable."),
+    "report": ("pendtrack.cli.report_cmd", "report", "Self-contained HTML report of a run or batch folder."),
+    "discover": ("pendtrack.cli.discover_cmd", "discover", "Name the physics the baseline misses, extend the model -> discovery.json/.md."),
 }
 
 

@@ -1,0 +1,129 @@
+"""The record as discovery analyses it: a uniform grid, its kinematics and the held-out split.
+
+Records faster than ``analysis_rate_hz`` are analysed at an integer fraction of their rate
+(every k-th sample): at 60 Hz an oscillation of ~1 s still has ~60 samples, far more than
+the physics needs, and every simulation, fit and diagnostic costs half as much as at 120 Hz.
+A record whose times are not uniform (jittered time stamps, dropped frames) is linearly
+interpolated onto the uniform grid of its median step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendtrack.discovery.diagnostics import savgol_kinematics, savgol_window_samples
+from pendtrack.discovery.inputs import AngleSeries
+from pendtrack.errors import FitError
+
+UNIFORM_RTOL = 1e-6  # spacing spread below which a record counts as uniform (as pendtrack.models)
+
+
+@dataclass(frozen=True, eq=False)
+class AnalysisData:
+    """A record ready for fitting and diagnosis.
+
+    Attributes
+    ----------
+    t : ndarray
+        Uniform times [s].
+    theta : ndarray
+        Angle [rad].
+    omega, alpha : ndarray
+        Savitzky-Golay angular velocity [rad/s] and acceleration [rad/s^2].
+    t_split : float
+        End of the training part [s]: held-out samples have ``t > t_split``.
+    savgol_window : int
+        Savitzky-Golay window [samples] (odd).
+    savgol_order : int
+    smoothed : bool
+        ``theta`` is itself Savitzky-Golay smoothed (kinematics input).
+    decimation : int
+        Every ``decimation``-th input sample was kept.
+    interpolated : bool
+        The input was interpolated onto a uniform grid.
+    source : str
+        Name of the input, for messages.
+    """
+
+    t: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    t_split: float
+    savgol_window: int
+    savgol_order: int
+    smoothed: bool
+    decimation: int
+    interpolated: bool
+    source: str
+
+    @property
+    def dt(self) -> float:
+        """Grid step [s]."""
+        return float((self.t[-1] - self.t[0]) / (self.t.size - 1))
+
+    @property
+    def heldout(self) -> np.ndarray:
+        """Mask of the held-out samples."""
+        return self.t > self.t_split
+
+    @property
+    def train_window(self) -> tuple[float, float]:
+        """``(t_start, t_split)`` [s]."""
+        return float(self.t[0]), float(self.t_split)
+
+    def to_dict(self) -> dict[str, object]:
+        return {"n": int(self.t.size), "rate_hz": 1.0 / self.dt, "duration_s": float(self.t[-1] - self.t[0]),
+                "t_split": self.t_split, "n_heldout": int(self.heldout.sum()), "savgol_window": self.savgol_window,
+                "savgol_order": self.savgol_order, "decimation": self.decimation, "interpolated": self.interpolated,
+                "smoothed_input": self.smoothed}
+
+
+def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: float, savgol_window_s: float,
+            savgol_order: int) -> AnalysisData:
+    """Uniform grid, decimation, Savitzky-Golay kinematics and the train/held-out split.
+
+    Parameters
+    ----------
+    series : AngleSeries
+        The record as read.
+    analysis_rate_hz : float
+        Records faster than this are decimated by the largest integer keeping at least
+        this rate [1/s]; 0 keeps every sample.
+    train_fraction : float
+        Share of the duration fitted when judging held-out error, in (0, 1).
+    savgol_window_s, savgol_order : float, int
+        Savitzky-Golay filter ([kinematics] section) [s], [1].
+
+    Raises
+    ------
+    FitError
+        The record is too short for a training part and a held-out part.
+    """
+    t = series.t - 0.0
+    theta = series.theta
+    dt = float(np.median(np.diff(t)))
+    n_grid = int(round((t[-1] - t[0]) / dt)) + 1
+    grid = t[0] + dt * np.arange(n_grid)
+    interpolated = not (t.size == n_grid and float(np.max(np.abs(t - grid))) <= UNIFORM_RTOL * dt)
+    if interpolated:
+        theta = np.interp(grid, t, theta)
+    t = grid
+    k = 1
+    if analysis_rate_hz > 0:
+        k = max(1, int(math.floor((1.0 / dt) / analysis_rate_hz + 1e-9)))
+    t = t[::k]
+    theta = np.asarray(theta[::k], dtype=float)
+    h = float((t[-1] - t[0]) / (t.size - 1))
+    win = savgol_window_samples(savgol_window_s, h, savgol_order)
+    _, omega, alpha = savgol_kinematics(theta, h, win, savgol_order)
+    t_split = float(t[0] + train_fraction * (t[-1] - t[0]))
+    if np.count_nonzero(t > t_split) < 50 or np.count_nonzero(t <= t_split) < 100:
+        raise FitError(f"record too short for a training part and a held-out part ({t.size} samples)",
+                       path=series.source)
+    return AnalysisData(t=t, theta=theta, omega=omega, alpha=alpha, t_split=t_split, savgol_window=win,
+                        savgol_order=savgol_order, smoothed=series.smoothed, decimation=k,
+                        interpolated=interpolated, source=str(series.source))

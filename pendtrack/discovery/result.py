@@ -1,0 +1,286 @@
+"""Result objects of discovery: frozen dataclasses with ``to_dict()`` (discovery.json)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+def _num(x: Any) -> float | None:
+    """A JSON-safe float (None for NaN/inf)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class FitSummary:
+    """What discovery keeps of one :class:`pendtrack.fitting.FitResult`.
+
+    Attributes
+    ----------
+    model : str
+        Model name (``baseline+term+...``).
+    extra : tuple of str
+        Terms added to the baseline.
+    values, stderr, u_paper : mapping
+        Parameter -> best value, sandwich standard error, the paper's spread uncertainty
+        [each parameter's unit].
+    theta0, omega0 : float
+        Fitted initial state at the window's start [rad], [rad/s].
+    xi2 : float
+        Minimum cost (Xi^2, eq. leastsquarescostfunction, or the mean squared angle) [1].
+    rms : float
+        RMS of theta - theta_model over the fitted samples [rad].
+    bic : float
+        ``n ln(xi2) + k ln(n)`` as :mod:`pendtrack.fitting.result` defines it [1].
+    n, k : int
+        Samples in the cost; fitted parameters (initial state included).
+    window : tuple of float
+        Fitted time window [s].
+    converged : bool
+    message : str
+    runtime_s : float
+        Wall time of the fit [s].
+    """
+
+    model: str
+    extra: tuple[str, ...]
+    values: Mapping[str, float]
+    stderr: Mapping[str, float]
+    u_paper: Mapping[str, float]
+    theta0: float
+    omega0: float
+    xi2: float
+    rms: float
+    bic: float
+    n: int
+    k: int
+    window: tuple[float, float]
+    converged: bool
+    message: str
+    runtime_s: float
+
+    @classmethod
+    def from_fit(cls, fit: Any, extra: tuple[str, ...]) -> "FitSummary":
+        return cls(model=fit.model, extra=tuple(extra), values=dict(fit.values),
+                   stderr={k: float(v.stderr) for k, v in fit.params.items()},
+                   # the paper's spread needs several accepted starts; one start has none
+                   u_paper={k: float(v.u_paper) if fit.n_accepted > 1 else float("nan")
+                            for k, v in fit.params.items()},
+                   theta0=float(fit.theta0), omega0=float(fit.omega0), xi2=float(fit.xi2_min), rms=float(fit.rms),
+                   bic=float(fit.bic), n=int(fit.n), k=int(fit.n_params),
+                   window=(float(fit.window[0]), float(fit.window[1])), converged=bool(fit.converged),
+                   message=str(fit.message), runtime_s=float(fit.runtime_s))
+
+    def params(self, names: tuple[str, ...] | None = None) -> dict[str, dict[str, float | None]]:
+        """``{name: {"value", "stderr", "u_paper"}}`` for the named (default all) parameters."""
+        keys = self.values.keys() if names is None else names
+        return {k: {"value": _num(self.values[k]), "stderr": _num(self.stderr.get(k)),
+                    "u_paper": _num(self.u_paper.get(k))} for k in keys}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"model": self.model, "extra": list(self.extra), "params": self.params(),
+                "initial_state": {"theta0": _num(self.theta0), "omega0": _num(self.omega0)},
+                "xi2": _num(self.xi2), "rms": _num(self.rms), "bic": _num(self.bic), "n": self.n, "k": self.k,
+                "window": [_num(self.window[0]), _num(self.window[1])], "converged": self.converged,
+                "message": self.message, "runtime_s": _num(self.runtime_s)}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate model judged against the current one.
+
+    Attributes
+    ----------
+    effect : str
+        The effect (term) tried.
+    step : int
+        Selection step (1 = first extension of the baseline).
+    signature_score : float
+        Its signature score on the current model's diagnosis (the order it was tried in).
+    train, full : FitSummary
+        Fit on the training part and on the whole record.
+    heldout_rms : float
+        RMS of the training fit's prediction over the held-out part [rad].
+    heldout_gain : float
+        Held-out RMS of the current model minus this one's [rad] (> 0: better).
+    heldout_z : float
+        That gain in mean squares over what noise alone would give (see selection) [1].
+    delta_bic : float
+        BIC of this model minus the current model's, whole record [1].
+    passes_bic, passes_heldout : bool
+        The two tests.
+    error : str
+        Why the candidate could not be fitted ("" when it could).
+    """
+
+    effect: str
+    step: int
+    signature_score: float
+    train: FitSummary | None
+    full: FitSummary | None
+    heldout_rms: float
+    heldout_gain: float
+    heldout_z: float
+    delta_bic: float
+    passes_bic: bool
+    passes_heldout: bool
+    error: str = ""
+
+    @property
+    def earns_keep(self) -> bool:
+        """Both tests passed."""
+        return self.passes_bic and self.passes_heldout and not self.error
+
+    def reason(self) -> str:
+        """One line: why it was (not) kept."""
+        if self.error:
+            return f"could not be fitted: {self.error}"
+        if not math.isfinite(self.delta_bic):
+            return (f"held-out gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f} (not significant); "
+                    "not refitted on the whole record, no dBIC")
+        parts = [f"dBIC {self.delta_bic:+.1f}" + ("" if self.passes_bic else " (not < threshold)"),
+                 f"held-out gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f}"
+                 + ("" if self.passes_heldout else " (not significant)")]
+        return "; ".join(parts)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "step": self.step, "signature_score": _num(self.signature_score),
+                "model": (self.full or self.train).model if (self.full or self.train) else None,
+                "params": (self.full or self.train).params(_term_params(self.effect)) if (self.full or self.train)
+                else {},
+                "params_from": "whole record" if self.full else ("training part" if self.train else None),
+                "rms": _num(self.full.rms) if self.full else None, "xi2": _num(self.full.xi2) if self.full else None,
+                "heldout_rms": _num(self.heldout_rms), "heldout_gain": _num(self.heldout_gain),
+                "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic), "passes_bic": self.passes_bic,
+                "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep, "reason": self.reason(),
+                "error": self.error}
+
+
+def _term_params(effect: str) -> tuple[str, ...]:
+    from pendtrack.models import TERMS
+
+    return TERMS[effect].params
+
+
+@dataclass(frozen=True)
+class Step:
+    """One accepted extension and what it gained.
+
+    Attributes
+    ----------
+    effect : str
+        The term added.
+    before, after : FitSummary
+        Whole-record fits of the model before and after.
+    heldout_rms_before, heldout_rms_after : float
+        Held-out RMS of the training fits' predictions [rad].
+    heldout_z : float
+        Significance of the held-out gain [1].
+    delta_bic : float
+        ``bic_after - bic_before`` [1].
+    """
+
+    effect: str
+    before: FitSummary
+    after: FitSummary
+    heldout_rms_before: float
+    heldout_rms_after: float
+    heldout_z: float
+    delta_bic: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "model": self.after.model,
+                "params": self.after.params(_term_params(self.effect)),
+                "rms_before": _num(self.before.rms), "rms_after": _num(self.after.rms),
+                "xi2_before": _num(self.before.xi2), "xi2_after": _num(self.after.xi2),
+                "heldout_rms_before": _num(self.heldout_rms_before), "heldout_rms_after": _num(self.heldout_rms_after),
+                "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic),
+                "model_params": self.after.params()}
+
+
+@dataclass(frozen=True)
+class DiscoveryResult:
+    """Everything discovery found (``to_dict()`` is discovery.json without provenance).
+
+    Attributes
+    ----------
+    baseline : str
+        Baseline model name.
+    effects : tuple of str
+        Effects kept, in the order they were added.
+    steps : tuple of Step
+    candidates : tuple of Candidate
+        Every candidate judged, every step (the runners-up are those not kept).
+    baseline_fit : FitSummary
+        Whole-record baseline fit.
+    baseline_heldout_rms : float
+        Held-out RMS of the baseline's training fit [rad].
+    final_fit : FitSummary
+    final_heldout_rms : float
+    diagnosis : mapping
+        Baseline (and final) diagnosis, signature ranking, the cause named.
+    thresholds : mapping
+        The decision thresholds used.
+    data : mapping
+        Facts about the analysed record.
+    runtime_s : float
+    """
+
+    baseline: str
+    effects: tuple[str, ...]
+    steps: tuple[Step, ...]
+    candidates: tuple[Candidate, ...]
+    baseline_fit: FitSummary
+    baseline_heldout_rms: float
+    final_fit: FitSummary
+    final_heldout_rms: float
+    diagnosis: Mapping[str, Any]
+    thresholds: Mapping[str, float]
+    data: Mapping[str, Any] = field(default_factory=dict)
+    runtime_s: float = 0.0
+
+    @property
+    def runners_up(self) -> tuple[Candidate, ...]:
+        """Candidates judged but not kept, best held-out first within each step."""
+        kept = {(i + 1, s.effect) for i, s in enumerate(self.steps)}
+        rest = [c for c in self.candidates if (c.step, c.effect) not in kept]
+        return tuple(sorted(rest, key=lambda c: (c.step, -(c.heldout_gain if math.isfinite(c.heldout_gain) else -1e9))))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "baseline": self.baseline,
+            "effects": list(self.effects),
+            "steps": [s.to_dict() for s in self.steps],
+            "diagnosis": _jsonable(self.diagnosis),
+            "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.effects),
+                            "heldout_rms": _num(self.final_heldout_rms)},
+            "runners_up": [c.to_dict() for c in self.runners_up],
+            "baseline_fit": {**self.baseline_fit.to_dict(), "heldout_rms": _num(self.baseline_heldout_rms)},
+            "thresholds": dict(self.thresholds),
+            "data": _jsonable(self.data),
+            "runtime_s": _num(self.runtime_s),
+        }
+
+
+def _jsonable(obj: Any) -> Any:
+    """Arrays to lists and non-finite floats to None, recursively."""
+    if isinstance(obj, Mapping):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_jsonable(v) for v in obj.tolist()]
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer, int)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        return _num(obj)
+    return obj

@@ -1,0 +1,118 @@
+"""`discover` stage: a record (angle/kinematics Parquet, text table or video) -> discovery.json + .md.
+
+For a video the video stages run first (track, angle) into the same folder and discovery
+reads their ``angle.parquet``. Both outputs are written atomically, and only after the
+whole analysis succeeded: a bad input leaves no discovery artifact.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pendtrack.artifacts import DISCOVERY_JSON_KEYS, Provenance, atomic_write, inputs_for, write_json_artifact
+from pendtrack.config import Config
+from pendtrack.errors import ArtifactError
+from pendtrack.progress import progress_bar
+from pendtrack.stages import StageOutput, up_to_date
+
+JSON_NAME = "discovery.json"
+MD_NAME = "discovery.md"
+
+
+def _analysed_file(source: Path, out_dir: Path, config: Config, force: bool, progress: bool) -> Path:
+    """The file discovery reads: the input itself, or the angle.parquet made from a video."""
+    from pendtrack.discovery.inputs import is_video
+
+    if not source.is_file():
+        raise ArtifactError("file not found", path=source)
+    if not is_video(source):
+        return source
+    from pendtrack.stages.angle import angle_stage
+    from pendtrack.stages.track import track_stage
+
+    common = {"out_dir": out_dir, "config": config, "force": force, "progress": progress}
+    track = track_stage(source, **common)
+    return angle_stage(track.path, **common).path
+
+
+def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, baseline: str | None = None,
+                   effects: tuple[str, ...] | None = None, force: bool = False,
+                   progress: bool = True) -> StageOutput:
+    """Diagnose the baseline, name the missing physics, extend the model, measure the gain.
+
+    Parameters
+    ----------
+    source : path
+        angle.parquet, kinematics.parquet, a CSV/whitespace table (t [s], theta [rad], ...)
+        or a video.
+    out_dir : path
+        Output folder (created): discovery.json, discovery.md (and, for a video, the video
+        stages' artifacts).
+    config : Config
+        Uses [discover], [kinematics], [models] and [fit] (cost); for a video also the
+        video stages' sections.
+    baseline : str, optional
+        Overrides ``config.discover.baseline``.
+    effects : tuple of str, optional
+        Overrides ``config.discover.effects`` (the catalogue to try; empty = all).
+    force : bool
+        Recompute even if the outputs are up to date.
+    progress : bool
+        Progress bar over the fits (stderr).
+
+    Returns
+    -------
+    StageOutput
+        ``paths``: discovery.json, discovery.md. ``facts``: baseline, effects, rms and
+        held-out RMS of the baseline and the final model, runtime.
+
+    Raises
+    ------
+    ArtifactError
+        Missing or unreadable input (the message names the file).
+    ConfigError
+        Unknown baseline or effect.
+    FitError
+        A record that cannot support the analysis.
+    """
+    from pendtrack.discovery import catalogue
+    from pendtrack.discovery.inputs import read_angle_series
+    from pendtrack.discovery.narrative import write_markdown
+    from pendtrack.discovery.search import discover
+
+    source = Path(source)
+    out_dir = Path(out_dir)
+    if baseline is not None or effects is not None:
+        overrides: dict[str, Any] = {}
+        if baseline is not None:
+            overrides["baseline"] = baseline
+        if effects is not None:
+            overrides["effects"] = tuple(effects)
+        config = config.replace("discover", **overrides)
+    dc = config.discover
+    pool = catalogue.candidates(dc.baseline, dc.effects)  # unknown names fail before any work
+    analysed = _analysed_file(source, out_dir, config, force, progress)
+    series = read_angle_series(analysed)
+    paths = (out_dir / JSON_NAME, out_dir / MD_NAME)
+    inputs = inputs_for(analysed)
+    sections = config.sections("discover", "kinematics", "models") | {"fit": {"cost": config.fit.cost}}
+    if up_to_date(paths[:1], "discovery", inputs=inputs, config=sections, force=force) and paths[1].is_file():
+        import json
+
+        record = json.loads(paths[0].read_text(encoding="utf-8"))
+        return StageOutput(paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
+
+    total = 1 + len(pool) * max(1, min(dc.max_effects, len(pool)))
+    with progress_bar(total, "discover", enabled=progress) as advance:
+        result = discover(series, config=config, on_progress=advance)
+    record = result.to_dict()
+    facts = {"source": str(source), "analysed": str(analysed), "baseline": result.baseline,
+             "effects": list(result.effects), "baseline_rms": result.baseline_fit.rms,
+             "baseline_heldout_rms": result.baseline_heldout_rms, "final_rms": result.final_fit.rms,
+             "final_heldout_rms": result.final_heldout_rms, "runtime_s": result.runtime_s}
+    prov = Provenance(stage="discover", config=sections, inputs=inputs, extra=facts)
+    text = write_markdown(result)
+    write_json_artifact(record, paths[0], required=DISCOVERY_JSON_KEYS, provenance=prov)
+    atomic_write(paths[1], lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+    return StageOutput(paths, facts=facts)

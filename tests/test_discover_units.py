@@ -1,0 +1,201 @@
+"""Discovery's model-independent parts on synthetic arrays: readers, diagnostics, decision rule."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pendtrack.discovery import catalogue as C
+from pendtrack.discovery.cycles import cycle_bounds, cycle_fit, turning_points
+from pendtrack.discovery.hysteresis import delta_alpha, loop_areas
+from pendtrack.discovery.inputs import read_angle_series
+from pendtrack.discovery.residuals import effective_n, noise_sigma, order_spectrum, runs_test, whiteness
+from pendtrack.discovery.selection import heldout_test
+from pendtrack.errors import ArtifactError, ConfigError
+
+H = 1 / 60
+W0 = 2 * math.pi  # 1 Hz oscillation
+
+
+def _oscillation(seconds: float = 60.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    t = np.arange(0, seconds, H)
+    amp = 0.5 * np.exp(-t / 80)
+    return t, amp * np.sin(W0 * t), amp * W0 * np.cos(W0 * t)
+
+
+# --- readers ------------------------------------------------------------------------------
+
+def test_reads_whitespace_table_ignoring_extra_columns_and_comments(tmp_path):
+    p = tmp_path / "run.txt"
+    t = np.arange(200) * 0.05
+    rows = "\n".join(f"{a} {b} 99.0" for a, b in zip(t, np.sin(t)))
+    p.write_text("# a comment\n\n" + rows + "\n")
+    s = read_angle_series(p)
+    assert s.n == 200 and s.kind == "table" and not s.smoothed
+    np.testing.assert_allclose(s.theta, np.sin(t))
+    assert s.rate_hz == pytest.approx(20.0)
+
+
+def test_reads_csv_with_header(tmp_path):
+    p = tmp_path / "run.csv"
+    t = np.arange(150) / 120
+    p.write_text("t,theta,foo\n" + "\n".join(f"{a},{b},x" for a, b in zip(t, np.cos(t))))
+    s = read_angle_series(p)
+    assert s.n == 150 and s.theta[0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("0 1\n0.1 abc\n", "line 2"),
+    ("\n".join(f"{0.1 * (150 - i)} 0" for i in range(150)), "increase strictly"),
+    ("0 1\n", "only 1 usable samples"),
+])
+def test_bad_table_names_file_and_problem(tmp_path, text, fragment):
+    p = tmp_path / "bad.txt"
+    p.write_text(text)
+    with pytest.raises(ArtifactError) as err:
+        read_angle_series(p)
+    assert str(p) in str(err.value) and fragment in str(err.value)
+
+
+def test_missing_file_and_video_without_stages(tmp_path):
+    with pytest.raises(ArtifactError, match="file not found"):
+        read_angle_series(tmp_path / "none.txt")
+    v = tmp_path / "clip.mp4"
+    v.write_bytes(b"\0")
+    with pytest.raises(ArtifactError, match="is a video"):
+        read_angle_series(v)
+
+
+def test_reads_angle_artifact_dropping_not_ok_rows(tmp_path):
+    from pendtrack.artifacts import Provenance, write_artifact
+
+    t = np.arange(300) / 120
+    ok = np.ones(300, bool)
+    ok[10:20] = False
+    df = pd.DataFrame({"t": t, "theta": np.sin(t), "ok": ok})
+    p = write_artifact(df, tmp_path / "angle.parquet", "angle", provenance=Provenance(stage="angle"))
+    s = read_angle_series(p)
+    assert s.kind == "angle" and s.n == 290
+
+
+def test_parquet_without_theta_is_an_error(tmp_path):
+    p = tmp_path / "x.parquet"
+    pd.DataFrame({"t": np.arange(200.0), "angle": np.zeros(200)}).to_parquet(p)
+    with pytest.raises(ArtifactError, match="missing column 'theta'"):
+        read_angle_series(p)
+
+
+# --- residual statistics ------------------------------------------------------------------
+
+def test_white_noise_passes_whiteness_and_structure_fails():
+    rng = np.random.default_rng(1)
+    r = rng.normal(0, 0.003, 6000)
+    w = whiteness(r, H, period_s=1.0)
+    assert w.white and abs(w.runs_z) < 3
+    t = np.arange(6000) * H
+    w2 = whiteness(r + 0.003 * np.sin(W0 * t), H, period_s=1.0)
+    assert not w2.white and w2.runs_z < -3
+
+
+def test_noise_sigma_ignores_smooth_model_error():
+    rng = np.random.default_rng(2)
+    t = np.arange(6000) * H
+    r = rng.normal(0, 0.002, t.size) + 0.01 * np.sin(W0 * t)
+    # diff() of a 1 Hz sine at 60 Hz is ~0.1 of its amplitude: sigma within 10 %
+    assert noise_sigma(r) == pytest.approx(0.002, rel=0.1)
+
+
+def test_runs_test_counts():
+    runs, mu, z, p = runs_test(np.array([1.0, -1.0] * 50))
+    assert runs == 100 and z > 5  # alternating: too many runs
+
+
+def test_effective_n_white_vs_smooth():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=5000)
+    assert effective_n(x) > 3000  # white: ~n
+    smooth = np.convolve(x, np.ones(50) / 50, mode="same")
+    assert effective_n(smooth) < 500  # 50-sample moving average: ~n/50
+
+
+def test_order_spectrum_finds_a_line_that_follows_a_drifting_frequency():
+    rng = np.random.default_rng(4)
+    t = np.arange(0, 60, H)
+    phase = W0 * t * (1 + 0.002 * t)  # the frequency drifts by 12 % over the run
+    noise = rng.normal(0, 0.002, t.size)
+    quiet = order_spectrum(noise, phase)
+    line = order_spectrum(noise + 0.002 * np.cos(phase), phase)
+    assert quiet.snr[0] < 20  # noise: exponential with mean ~1.4
+    assert line.snr[0] > 100 and line.snr[1] < 20
+
+
+# --- per-cycle decomposition ----------------------------------------------------------------
+
+def test_cycle_fit_recovers_a_timing_and_an_amplitude_error():
+    t, th, om = _oscillation()
+    rng = np.random.default_rng(5)
+    delta, eps = 2e-3, 0.01  # the model lags by 2 ms and is 1 % too small
+    data = (1 + eps) * np.interp(t + delta, t, th) + rng.normal(0, 0.002, t.size)
+    tp = turning_points(t, om, threshold=0.05)
+    bounds = cycle_bounds(tp[1], tp[2])
+    assert len(bounds) >= 55
+    cyc = cycle_fit(t, data - th, th, om, bounds, sigma=0.002)
+    # stderr of delta per cycle is ~0.1 ms, of eps ~0.002 -> means over 55 cycles are tight
+    assert np.mean(cyc.delta) == pytest.approx(delta, rel=0.05)
+    assert np.mean(cyc.eps) == pytest.approx(eps, rel=0.1)
+    assert cyc.phase_chi2 > 50
+    clean = cycle_fit(t, rng.normal(0, 0.002, t.size), th, om, bounds, sigma=0.002)
+    assert 0.6 < clean.phase_chi2 < 1.5 and 0.6 < clean.amp_chi2 < 1.5  # chi^2/dof of noise
+
+
+def test_turning_points_survive_noise():
+    t, th, om = _oscillation(20.0)
+    rng = np.random.default_rng(6)
+    times, _, dirs = turning_points(t, om + rng.normal(0, 0.05, t.size), threshold=0.3)
+    assert times.size == 40 and np.all(np.abs(np.diff(dirs)) == 2)  # alternate, 2 per period
+
+
+# --- hysteresis ------------------------------------------------------------------------------
+
+def test_loop_area_zero_for_velocity_dissipation_nonzero_for_added_mass():
+    t, th, om = _oscillation(10.0)
+    tp = turning_points(t, om, threshold=0.05)
+    bounds = cycle_bounds(tp[1], tp[2])
+    single_valued = -0.02 * om - 0.01 * om * np.abs(om)
+    assert np.max(np.abs(loop_areas(om, single_valued, bounds))) < 1e-3
+    added = 0.02 * om ** 2 * np.sin(th)
+    assert np.all(loop_areas(om, added, bounds) > 0.05)  # counter-clockwise lobes, eq. ainerdef
+    np.testing.assert_allclose(delta_alpha(th, -W0 ** 2 * np.sin(th), W0), 0.0, atol=1e-12)
+
+
+# --- decision rule -----------------------------------------------------------------------------
+
+def test_heldout_test_real_gain_vs_noise_only():
+    rng = np.random.default_rng(7)
+    t = np.arange(0, 30, H)
+    truth = 0.3 * np.sin(W0 * t)
+    data = truth + rng.normal(0, 0.003, t.size)
+    worse = truth + 0.004 * np.sin(W0 * t + 1.0)
+    gain, z = heldout_test(data, worse, truth)
+    assert gain > 0 and z > 10
+    spurious = truth + 1e-4 * rng.normal(size=t.size).cumsum() / 50  # a tiny random change
+    _, z0 = heldout_test(data, truth, spurious)
+    assert z0 < 3
+
+
+def test_catalogue_candidates_and_ranking():
+    names = [e.name for e in C.candidates("standard")]
+    assert names == ["added_mass", "time_varying_damping", "memory", "power_drag"]
+    assert [e.name for e in C.candidates("standard", ["memory"])] == ["memory"]
+    with pytest.raises(ConfigError, match="unknown effect 'magic'"):
+        C.candidates("standard", ["magic"])
+    evidence = {"frequency_amplitude": 40.0, "hysteresis": 30.0, "dephasing": 5.0}
+    assert C.rank(C.candidates("standard"), evidence)[0][0].name == "added_mass"
+    evidence = {"early_envelope": 50.0, "envelope": 20.0}
+    assert C.rank(C.candidates("standard"), evidence)[0][0].name == "time_varying_damping"
+    evidence = {"dephasing": 30.0, "negative_damping": 12.0, "hysteresis": 5.0}
+    assert C.rank(C.candidates("standard"), evidence)[0][0].name == "memory"
+    assert all(s == 0 for _, s in C.rank(C.candidates("standard"), {}))
