@@ -11,7 +11,6 @@ Older or hand-made files with a text diagnosis or a bare final model name still 
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping
 from html import escape
 from typing import Any
@@ -19,27 +18,18 @@ from typing import Any
 from pendtrack.report.html import Facts, Heading, Html, Note, Preformatted, Section, Table
 from pendtrack.report.load import RunData
 from pendtrack.report.markdown import to_html
+from pendtrack.report.tables import number
 
 
-def _num(x: Any) -> float | None:
-    if isinstance(x, Mapping):
-        x = x.get("value")
-    if isinstance(x, bool):
-        return None
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
 
 
 def _mrad(x: Any) -> float | None:
-    v = _num(x)
+    v = number(x)
     return None if v is None else 1e3 * v
 
 
 def _fmt(v: Any) -> str:
-    n = _num(v)
+    n = number(v)
     return f"{n:.4g}" if n is not None else str(v)
 
 
@@ -58,10 +48,10 @@ def _model_name(final: Any) -> str:
 def _steps_table(steps: list[Any]) -> Table:
     rows = []
     for i, step in enumerate((s for s in steps if isinstance(s, Mapping)), 1):
-        hb, ha = _num(step.get("heldout_rms_before")), _num(step.get("heldout_rms_after"))
+        hb, ha = number(step.get("heldout_rms_before")), number(step.get("heldout_rms_after"))
         gain = f"{100 * (1 - ha / hb):.1f} %" if hb and ha is not None else None
         rows.append((i, str(step.get("effect", "")), _params_text(step.get("params")), _mrad(step.get("rms_before")),
-                     _mrad(step.get("rms_after")), _mrad(hb), _mrad(ha), gain, _num(step.get("delta_bic"))))
+                     _mrad(step.get("rms_after")), _mrad(hb), _mrad(ha), gain, number(step.get("delta_bic"))))
     return Table(("step", "effect added", "its parameters", "RMS before [mrad]", "RMS after [mrad]",
                   "held-out before [mrad]", "held-out after [mrad]", "held-out gain", "ΔBIC"), tuple(rows),
                  caption="Each step adds one physical effect to the model. The evidence that it is real: the RMS of "
@@ -76,7 +66,7 @@ def _evidence_table(diagnosis: Mapping[str, Any]) -> Table | None:
         return None
     final = diagnosis.get("final")
     final_ev = final.get("evidence") if isinstance(final, Mapping) else None
-    rows = tuple((str(k), _num(v), _num(final_ev.get(k)) if isinstance(final_ev, Mapping) else None)
+    rows = tuple((str(k), number(v), number(final_ev.get(k)) if isinstance(final_ev, Mapping) else None)
                  for k, v in base.items())
     return Table(("diagnostic", "baseline model", "final model"), rows,
                  caption="What the model gets wrong, as z-like scores (0: the residual is white noise; a few units "
@@ -104,7 +94,7 @@ def _final_params(final: Mapping[str, Any]) -> Table | None:
     rows = []
     for name, e in params.items():
         e = e if isinstance(e, Mapping) else {"value": e}
-        rows.append((str(name), _num(e.get("value")), _num(e.get("stderr")), _num(e.get("u_paper"))))
+        rows.append((str(name), number(e.get("value")), number(e.get("stderr")), number(e.get("u_paper"))))
     return Table(("parameter", "value", "stderr", "u_paper"), tuple(rows),
                  caption=f"Parameters of the discovered model <b>{escape(_model_name(final))}</b> fitted to the whole record.",
                  text_columns=(0,), key="discovery-final")

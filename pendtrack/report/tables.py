@@ -21,7 +21,8 @@ _UNCERTAINTY_NOTE = (
 )
 
 
-def _num(x: Any) -> float | None:
+def number(x: Any) -> float | None:
+    """A finite float from a number or a {"value": ...} record; None otherwise."""
     if isinstance(x, Mapping):
         x = x.get("value")
     if isinstance(x, bool):
@@ -57,25 +58,25 @@ def _param_rows(entries: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     rows = []
     for name, entry in entries.items():
         e = entry if isinstance(entry, Mapping) else {"value": entry}
-        value, stderr, u_paper = (_num(e.get(k)) for k in ("value", "stderr", "u_paper"))
+        value, stderr, u_paper = (number(e.get(k)) for k in ("value", "stderr", "u_paper"))
         u_r = f"{100 * stderr / abs(value):.3g} %" if value and stderr is not None else None
         rows.append((str(name), _unit(str(name)), value, stderr, u_paper, u_r, _meaning(str(name))))
     return rows
 
 
 def _quality_table(run: RunData) -> Table:
-    bics = {m: _num(f.get("bic")) for m, f in run.fits.items()}
+    bics = {m: number(f.get("bic")) for m, f in run.fits.items()}
     finite = [b for b in bics.values() if b is not None]
     best = min(finite) if finite else None
     rows = []
     for name, fit in run.fits.items():
-        rms = _num(fit.get("rms"))
+        rms = number(fit.get("rms"))
         bic = bics[name]
         accepted = fit.get("n_accepted"), fit.get("n_starts")
-        rows.append((name, bool(fit.get("converged")), fit.get("n"), _num(fit.get("xi2_min")),
-                     None if rms is None else 1e3 * rms, _num(fit.get("aic")), bic,
+        rows.append((name, bool(fit.get("converged")), fit.get("n"), number(fit.get("xi2_min")),
+                     None if rms is None else 1e3 * rms, number(fit.get("aic")), bic,
                      None if bic is None or best is None else bic - best,
-                     f"{accepted[0]}/{accepted[1]}" if None not in accepted else None, _num(fit.get("runtime_s"))))
+                     f"{accepted[0]}/{accepted[1]}" if None not in accepted else None, number(fit.get("runtime_s"))))
     return Table(("model", "converged", "n", "Ξ²min", "RMS [mrad]", "AIC", "BIC", "ΔBIC", "accepted starts",
                   "runtime [s]"), tuple(rows),
                  caption="Fit quality. Ξ² is the paper's cost (eq. leastsquarescostfunction); RMS is that of "
@@ -120,7 +121,7 @@ def _relations(data: Any, both_converged: Any) -> Table | None:
         caption += " <b>Not both fits converged: the relations mean little.</b>"
     known = ("lhs", "lhs_stderr", "rhs", "rhs_stderr", "ratio", "z")
     if all(isinstance(v, Mapping) and "lhs" in v and "rhs" in v for _, v in items):
-        rows = tuple((str(v.get("relation") or v.get("name") or k), *(_num(v.get(c)) for c in known))
+        rows = tuple((str(v.get("relation") or v.get("name") or k), *(number(v.get(c)) for c in known))
                      for k, v in items)
         header = ("relation", "fractional side", "stderr", "classic side", "stderr", "ratio", "z")
         return Table(header, rows, caption=caption, text_columns=(0,), key="relations")
