@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 
 demo: setup
 	$(BIN)/pendtrack run $(SAMPLE) --out $(DEMO_OUT)
-	@echo "results in $(DEMO_OUT)/"
+	@echo "report: $(DEMO_OUT)/report.html (open it in a browser)"
 
 # The default suite (under 15 minutes on 2 cores); tests marked `slow` run in test-slow.
 test: setup
