@@ -59,13 +59,11 @@ def check_recovery(name: str, seed: int, *, truth: dict[str, float] | None = Non
     assert abs(res.theta0 - THETA0) < 3 * res.initial_state["theta0"].stderr + 1e-3, (name, seed, res.theta0)
 
 
-# The fractional model's quarter-power friction G1 |A|^(1/4) is evaluated at the grid points by
-# the predictor-corrector, so the simulated trajectory is not a smooth function of the
-# parameters (a cusp each time a grid omega passes 0). Every local optimiser then stops short
-# along the model's sloppy valley (beta, G2, p_f, Omega0), typically 5-20 standard errors from
-# the minimum, and the local standard errors are unreliable (flagged: stderr_reliable False).
-# With G1 = 0 the same data pipeline recovers the memory term as specified (test below).
-ROUGH = pytest.mark.xfail(reason="fractional solver not smooth in G1 (see README, 'Known limits')", strict=False)
+# The full fractional model: the solver is smooth in its parameters (tests/test_solvers.py),
+# but the cost's beta-G2-p_f-Omega0 valley is long and curved; over 12 seeds the estimates
+# scatter about twice as far as the Jacobian-based standard errors say (rms z 1.5-2.3), so
+# 3-sigma recovery fails on some seeds. With G1 = 0 the same pipeline recovers the memory term.
+ROUGH = pytest.mark.xfail(reason="fractional standard errors too small along the curved valley (README, 'Known limits')", strict=False)
 CASES = [pytest.param(n, marks=ROUGH) if n == "fractional" else n for n in sorted(TRUTHS)]
 MEMORY_ONLY = {**TRUTHS["fractional"], "G1": 0.0}
 
