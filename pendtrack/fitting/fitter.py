@@ -31,6 +31,7 @@ from pendtrack.fitting import uncertainty as U
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.estimates import DataSummary, Estimates, equation_error_estimates, summarize
 from pendtrack.fitting.multistart import draw_starts, local_fit, run_starts, run_tasks, window_ladder
+from pendtrack.fitting.polish import profile_polish, profile_sigmas
 from pendtrack.fitting.problem import FD_REL, STATE_NAMES, FitProblem, Simulator, parameter_bounds
 from pendtrack.fitting.result import FitResult, ParamEstimate
 
@@ -39,6 +40,7 @@ OMEGA0_STATE_SPREAD = 0.1  # start half-width of the initial angular velocity [r
 GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
 FIRST_WINDOW_HALF_SWINGS = 6  # the ladder's first window: three periods
 POLISH_ITERATIONS = 300  # budget (in Jacobians' worth) to finish the best start if its own budget ran out
+PROFILE_ALONG = "beta"  # the best fit of a model with memory is finished by a profile over this (fitting/polish.py)
 
 
 def _usable(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, ok: np.ndarray | None,
@@ -183,6 +185,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
               seed: int = 0, workers: int = 0, memory_s: float = 100 / 120, full_history: bool = False,
               observation: Observation | None = None, fixed: Mapping[str, float] | None = None,
               initial: Mapping[str, float] | None = None, ladder: bool = True, bootstrap: int = 0,
+              profile: bool = True,
               simulator: Simulator | None = None, method: str = "auto",
               on_progress: Callable[[int], None] | None = None, source: str = "the data") -> FitResult:
     """Fit ``model`` to a record by output error, with the paper's uncertainties and better ones.
@@ -235,6 +238,10 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         window at once.
     bootstrap : int
         Moving-block bootstrap refits (0 = none).
+    profile : bool
+        Profile-likelihood standard errors below and above each model parameter
+        (``stderr_low``, ``stderr_high``; :func:`pendtrack.fitting.polish.profile_sigmas`), two
+        constrained refits per side; they show where the cost is not quadratic.
     simulator : callable, optional
         ``simulate(model, params, t, *, theta0, omega0, memory_s, method)``; default the models
         package's numba hot path.
@@ -314,6 +321,12 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
             best = more
             costs[best_i] = more.cost
 
+    if PROFILE_ALONG in names and len(names) > 1:  # the memory term's sloppy valley: finish along it
+        polished = profile_polish(problem, best, PROFILE_ALONG)
+        if polished.cost < best.cost:
+            best = polished
+            costs[best_i] = polished.cost
+
     x = best.x
     r = problem.residuals(x)
     jac = problem.jacobian(x, central=True)
@@ -334,6 +347,11 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     rough = not (step_spread <= math.log(1.3))
     se_naive = U.stderr_from_cov(U.naive_covariance(jac, r))
     u_region = U.region_halfwidth(jac, best.cost, accept_ratio)
+    se_low = np.full(x.size, np.nan)
+    se_high = np.full(x.size, np.nan)
+    if profile:
+        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive,
+                                         [nm for nm in names if nm not in STATE_NAMES])
     se_boot = np.full(x.size, np.nan)
     if bootstrap > 0:
         se_boot = _bootstrap(problem, x, bootstrap, max(lag, obs.savgol_window, 1), seed, workers, on_progress)
@@ -371,7 +389,8 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         j = fitted[name]
         return ParamEstimate(value=float(x[j]), stderr=float(se[j]), u_paper=float(u_paper[j]),
                              u_region=float(u_region[j]), stderr_naive=float(se_naive[j]),
-                             stderr_bootstrap=float(se_boot[j]), estimate=float(estimates_full.get(name, math.nan)))
+                             stderr_bootstrap=float(se_boot[j]), stderr_low=float(se_low[j]),
+                             stderr_high=float(se_high[j]), estimate=float(estimates_full.get(name, math.nan)))
 
     return FitResult(
         model=str(model.name),

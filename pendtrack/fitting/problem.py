@@ -273,7 +273,9 @@ class FitProblem:
         if unknown:
             raise ValueError(f"cannot fix unknown parameter {unknown[0]!r}")
         merged = dict(self.fixed) | {k: float(v) for k, v in fixed.items()}
-        return replace(self, fixed=merged, lower=self._sub(self.lower, merged), upper=self._sub(self.upper, merged))
+        typical = None if self.typical is None else self._sub(self.typical, merged)
+        return replace(self, fixed=merged, lower=self._sub(self.lower, merged), upper=self._sub(self.upper, merged),
+                       typical=typical)
 
     def _sub(self, arr: np.ndarray, merged: Mapping[str, float]) -> np.ndarray:
         full = dict(zip(self.names, arr))

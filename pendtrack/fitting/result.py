@@ -8,7 +8,7 @@ fit.json of one model has exactly the issue's keys::
 plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u_paper} form),
 ``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
 ``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
-``stderr_bootstrap``, ``estimates``, ``covariance``,
+``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``estimates``, ``covariance``,
 ``start_costs``, ``message``. Non-finite numbers are written as ``null``.
 
 Information criteria
@@ -60,6 +60,9 @@ class ParamEstimate:
         Textbook ``s^2 (J^T J)^-1`` standard error, for comparison [same unit].
     stderr_bootstrap : float
         Block-bootstrap standard error [same unit]; NaN if not computed.
+    stderr_low, stderr_high : float
+        Profile-likelihood standard errors below and above ``value`` [same unit] (equal to
+        ``stderr`` where the cost is quadratic); NaN if not computed, inf if the profile is flat.
     estimate : float
         The data-derived initial estimate [same unit].
     fixed : bool
@@ -72,6 +75,8 @@ class ParamEstimate:
     u_region: float = math.nan
     stderr_naive: float = math.nan
     stderr_bootstrap: float = math.nan
+    stderr_low: float = math.nan
+    stderr_high: float = math.nan
     estimate: float = math.nan
     fixed: bool = False
 
@@ -221,6 +226,8 @@ class FitResult:
             "u_region": {k: _num(v.u_region) for k, v in all_params.items()},
             "stderr_naive": {k: _num(v.stderr_naive) for k, v in all_params.items()},
             "stderr_bootstrap": {k: _num(v.stderr_bootstrap) for k, v in all_params.items()},
+            "stderr_low": {k: _num(v.stderr_low) for k, v in all_params.items()},
+            "stderr_high": {k: _num(v.stderr_high) for k, v in all_params.items()},
             "estimates": {k: _num(v.estimate) for k, v in all_params.items()},
             "fixed": [k for k, v in all_params.items() if v.fixed],
             "covariance": {"names": list(self.fitted_names),

@@ -72,10 +72,10 @@ def friction_pair(w, k):  # noqa: ANN001, ANN201 (numba-compiled)
         y = k[5] * (w * k[7]) ** k[6]
         m += y
         big_m += y * w / (k[6] + 1.0)
-    if k[11] != 0.0:  # quarter_friction
-        y = k[11] * math.sqrt(math.sqrt(w * k[12]))
-        m += y
-        big_m += 0.8 * y * w
+    if k[11] != 0.0:  # quarter_friction; (0.8 k w) is ready before the root (off the critical path)
+        r4 = math.sqrt(math.sqrt(w * k[12]))
+        m += k[11] * r4
+        big_m += (0.8 * k[11] * w) * r4
     return m, big_m
 
 
@@ -262,11 +262,11 @@ def memory_pair(omega, inv_u, pf):  # noqa: ANN001, ANN201
 
     One ``pow`` (``|x|^(pf-1)``) serves both, so the predictor needs no division.
     """
-    xa = abs(omega) * inv_u
+    x = omega * inv_u
+    xa = abs(x)
     if xa > 0.0:
         y = xa ** (pf - 1.0)
-        g = xa * y
-        return (g if omega >= 0.0 else -g), pf * y * inv_u
+        return x * y, pf * y * inv_u
     if pf > 1.0:
         return 0.0, 0.0
     if pf == 1.0:
@@ -374,6 +374,11 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
     h2 = 0.5 * h
     h6 = h / 6.0
     hh2 = h * h2
+    # The loop is latency-bound: each step waits for the last. Expressions are ordered (no
+    # reassociation is allowed) so that the values computed last -- the memory function's pow
+    # at the corrected omega, the friction's roots at the predicted one -- enter with one
+    # operation each; everything else is prepared beside them.
+    om_base = omega + q_prev * h
     for i in range(n_steps):
         t1 = t_start + (i + 1) * h
         f1 = forcing[i + 1] if nf > 0 else 0.0
@@ -389,14 +394,13 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
         alpha = alpha_r + q_prev
         th_p = theta + (omega + alpha * h2) * h
         st_p = st + (omega * ct + (alpha * ct - omega * omega * st) * h2) * h
-        om_p = omega + alpha * h
+        om_p = om_base + alpha_r * h  # = omega + alpha h
         a_p = accel_smooth(th_p, st_p, om_p, t1, kc) + f1
         if has_mem:
             if math.isinf(dgi):  # pf < 1 at omega = 0: dg/domega infinite, evaluate g at the predicted omega
-                g_p = memory_fn(om_p, u, pf)
-            else:
-                g_p = gi + dgi * alpha * h
-            a_p -= khb * (g_p - gref + sigma)
+                a_p -= khb * (memory_fn(om_p, u, pf) - gref + sigma)
+            else:  # g_p = g_i + (dg/domega)_i alpha h
+                a_p -= khb * (gi - gref + sigma) + (khb * dgi * h) * alpha
         # corrector (linear acceleration); the friction enters as its exact mean over the step
         # with omega linear from omega_i to the predicted omega, which keeps the solution smooth
         # in the parameters when omega changes sign between grid points
@@ -409,14 +413,16 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
         ct = math.cos(th_c)
         a_c = accel_smooth(th_c, st, om_c, t1, kc) + f1
         if has_mem:
+            a_c -= khb * (sigma - gref)
             gi, dgi = memory_pair(om_c, inv_u, pf)
             gp[pad + i + 1] = gi - gref
-            a_c -= khb * (gi - gref + sigma)
+            a_c -= khb * gi
         m_i, big_m_i = friction_pair(abs(om_c), kc)
         theta = th_c
         omega = om_c
         alpha_r = a_c
         q_prev = q
+        om_base = om_c + q * h
         out_theta[i + 1] = theta
         out_omega[i + 1] = omega
         out_alpha[i + 1] = a_c - (m_i if om_c >= 0.0 else -m_i)
