@@ -75,8 +75,12 @@ class FitConfig:
     n_starts: int = 150  # paper: 150 independent starts
     accept_ratio: float = 1.25  # paper's 5/4 rule: starts with Xi^2 <= 5/4 Xi^2_min
     start_spread: float = 0.5  # starts drawn within +-spread (relative) around the estimates
-    seed: int = 0  # seed of the start draws
-    workers: int = 0  # processes for the starts; 0 = all cores
+    omega0_spread: float = 0.01  # starts' Omega0 within +-spread (relative) of the model-free estimate
+    seed: int = 0  # seed of the start draws (and of the bootstrap)
+    profile: bool = True  # profile-likelihood standard errors per side (stderr_low, stderr_high)
+    bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
+    start_budget: int = 40  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
+    workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
 
 
 @dataclass(frozen=True, kw_only=True)

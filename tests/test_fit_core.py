@@ -281,3 +281,22 @@ def test_block_bootstrap_gives_finite_errors():
                     observation=Observation(25, 3, True), simulator=toy_simulate)
     se_b = res.params["Omega0"].stderr_bootstrap
     assert np.isfinite(se_b) and 0.1 < se_b / res.params["Omega0"].stderr < 10
+
+
+def test_savgol_pair_kernel_matches_twin_and_numpy():
+    # the model's observation filter: numba kernel, its pure-Python twin and np.convolve agree
+    from pendtrack.fitting.cost import _coeffs, filter_kernel, savgol_pair_py
+
+    x = np.cumsum(np.random.default_rng(3).normal(size=500)) * 1e-2
+    c0 = _coeffs(25, 3, 0, 1.0)[::-1].copy()
+    c1 = _coeffs(25, 3, 1, 1 / 120)[::-1].copy()
+    outs = [(np.full(500, np.nan), np.full(500, np.nan)) for _ in range(2)]
+    savgol_pair_py(x, c0, c1, *outs[0])
+    filter_kernel()(x, c0, c1, *outs[1])
+    ref0 = np.convolve(x, _coeffs(25, 3, 0, 1.0), mode="valid")
+    ref1 = np.convolve(x, _coeffs(25, 3, 1, 1 / 120), mode="valid")
+    for a, b in outs:
+        assert np.isnan(a[:12]).all() and np.isnan(a[-12:]).all()  # ends untouched
+        # sums of 25 terms of size ~|x| ~ 0.1 (x 120 for the derivative): rounding ~1e-15 relative
+        np.testing.assert_allclose(a[12:-12], ref0, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(b[12:-12], ref1, rtol=0, atol=1e-10)

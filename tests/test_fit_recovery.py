@@ -53,7 +53,7 @@ def check_recovery(name: str, seed: int, *, truth: dict[str, float] | None = Non
     truth = truth or TRUTHS[name]
     t, theta, omega, alpha, ok, obs = record(name, seed, truth)
     res = fit_model(get_model(name), t, theta, omega, alpha=alpha, ok=ok, observation=obs, n_starts=N_STARTS[name],
-                    seed=seed, workers=0, fixed=fixed)
+                    seed=seed, workers=0, fixed=fixed, profile=True)
     assert res.converged, res.message
     truth = {k: v for k, v in truth.items() if k not in (fixed or {})}
     w = res.params["Omega0"].value

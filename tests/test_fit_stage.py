@@ -68,6 +68,14 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
     again = invoke("fit", str(kin_file), "--model", "standard", "--starts", "3", "--workers", "1", "-q",
                    "--out", str(out))
     assert again.exit_code == 0 and "up to date" in again.output
+    # the number of worker processes does not change a fit, so it does not make it stale
+    other = invoke("fit", str(kin_file), "--model", "standard", "--starts", "3", "--workers", "2", "-q",
+                   "--out", str(out))
+    assert other.exit_code == 0 and "up to date" in other.output
+    # ... but a setting that does change it does
+    changed = invoke("fit", str(kin_file), "--model", "standard", "--starts", "4", "--workers", "1", "-q",
+                     "--out", str(out))
+    assert changed.exit_code == 0 and "up to date" not in changed.output
 
 
 def test_fit_two_models_writes_container_and_per_model_files(kin_file, tmp_path):

@@ -92,13 +92,46 @@ class Observation:
         w = self.savgol_window
         if not w or theta.size < w:
             return theta, omega
-        k = w // 2
-        th = theta.copy()
-        om = omega.copy()
-        if self.smooth_theta:
-            th[k:-k] = np.convolve(theta, _coeffs(w, self.savgol_order, 0, 1.0), mode="valid")
-        om[k:-k] = np.convolve(theta, _coeffs(w, self.savgol_order, 1, h), mode="valid")
-        return th, om
+        theta = np.ascontiguousarray(theta, dtype=float)
+        smoothed = theta.copy()
+        om = np.array(omega, dtype=float)
+        # both filters in one pass (numba): np.convolve twice cost ~0.25 ms per 10^4 samples,
+        # a third of a fit's time per model evaluation
+        filter_kernel()(theta, _coeffs(w, self.savgol_order, 0, 1.0)[::-1].copy(),
+                        _coeffs(w, self.savgol_order, 1, h)[::-1].copy(), smoothed, om)
+        return (smoothed if self.smooth_theta else theta), om
+
+
+def savgol_pair_py(x, c_smooth, c_deriv, out_smooth, out_deriv):  # noqa: ANN001, ANN201
+    """Two FIR filters of ``x`` in one pass ("valid" part, centred); ends of the outputs untouched.
+
+    ``out_smooth[i + k] = sum_j c_smooth[j] x[i + j]`` (likewise ``out_deriv``), ``k = w // 2``,
+    ``w = len(c_smooth)`` -- a correlation, i.e. ``np.convolve(x, c[::-1], "valid")``. The numba
+    version (:func:`filter_kernel`) is this function compiled; they agree to rounding.
+    """
+    w = c_smooth.shape[0]
+    k = w // 2
+    for i in range(x.shape[0] - w + 1):
+        a = 0.0
+        b = 0.0
+        for j in range(w):
+            a += c_smooth[j] * x[i + j]
+            b += c_deriv[j] * x[i + j]
+        out_smooth[i + k] = a
+        out_deriv[i + k] = b
+
+
+_FILTER: dict[str, object] = {}
+
+
+def filter_kernel():  # noqa: ANN201
+    """The numba-compiled :func:`savgol_pair_py` (compiled, or loaded from cache, on first call)."""
+    if "pair" not in _FILTER:
+        from numba import njit
+
+        # fastmath: the two 25-term sums may be reassociated (vectorised); rounding-level differences
+        _FILTER["pair"] = njit(cache=True, fastmath=True)(savgol_pair_py)
+    return _FILTER["pair"]
 
 
 @lru_cache(maxsize=32)
@@ -110,7 +143,8 @@ def _coeffs(window: int, order: int, deriv: int, delta: float) -> np.ndarray:
 
 
 def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.ndarray,
-                    omega_exp: np.ndarray, *, cost: str, omega_scale: float) -> np.ndarray:
+                    omega_exp: np.ndarray, *, cost: str, omega_scale: float,
+                    a_theta_exp: np.ndarray | None = None) -> np.ndarray:
     """Residual vector whose sum of squares is the cost.
 
     Parameters
@@ -123,6 +157,8 @@ def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.
         The paper's Xi^2 or the mean squared angle residual.
     omega_scale : float
         ``1/(2 Omega0_hat)`` [s/rad], the fixed scale of ``A_omega`` (see module docstring).
+    a_theta_exp : ndarray, optional
+        ``sin(theta_exp / 2)`` if already known (a fit evaluates thousands of models on one record).
 
     Returns
     -------
@@ -135,7 +171,7 @@ def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.
         raise ValueError("no data sample in the cost")
     norm = 1.0 / np.sqrt(n)
     if cost == "xi2":
-        r_theta = np.sin(0.5 * theta_mod) - np.sin(0.5 * theta_exp)
+        r_theta = np.sin(0.5 * theta_mod) - (np.sin(0.5 * theta_exp) if a_theta_exp is None else a_theta_exp)
         r_omega = omega_scale * (omega_mod - omega_exp)
         return np.concatenate((r_theta, r_omega)) * norm
     if cost == "theta":

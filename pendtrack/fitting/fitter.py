@@ -185,7 +185,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
               seed: int = 0, workers: int = 0, memory_s: float = 100 / 120, full_history: bool = False,
               observation: Observation | None = None, fixed: Mapping[str, float] | None = None,
               initial: Mapping[str, float] | None = None, ladder: bool = True, bootstrap: int = 0,
-              profile: bool = True,
+              profile: bool = False, start_budget: int | None = None,
               simulator: Simulator | None = None, method: str = "auto",
               on_progress: Callable[[int], None] | None = None, source: str = "the data") -> FitResult:
     """Fit ``model`` to a record by output error, with the paper's uncertainties and better ones.
@@ -238,8 +238,15 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         window at once.
     bootstrap : int
         Moving-block bootstrap refits (0 = none).
+    start_budget : int, optional
+        Cap on each start's fit of the whole window, in Jacobians' worth of simulations
+        (default :data:`pendtrack.fitting.multistart.FINAL_ITERATIONS`). The best start is
+        always finished afterwards (a larger budget, and the profile polish for memory models),
+        so a smaller cap only makes the starts that are still crawling stop earlier: fewer of
+        them reach the paper's 5/4 acceptance, none changes the best fit.
     profile : bool
-        Profile-likelihood standard errors below and above each model parameter
+        Profile-likelihood standard errors below and above each model parameter (the fit
+        stage turns this on, ``[fit] profile``)
         (``stderr_low``, ``stderr_high``; :func:`pendtrack.fitting.polish.profile_sigmas`), two
         constrained refits per side; they show where the cost is not quadratic.
     simulator : callable, optional
@@ -308,7 +315,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     first_end = summary.first_window_end(problem.t_start, FIRST_WINDOW_HALF_SWINGS)
     ends = window_ladder(problem.t_start, problem.t_end, first_end) if ladder else (problem.t_end,)
 
-    outcomes = run_starts(problem, starts, ends, workers=workers, on_progress=on_progress)
+    outcomes = run_starts(problem, starts, ends, workers=workers, max_nfev=start_budget, on_progress=on_progress)
     xs = np.array([o.x for o in outcomes])
     costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])
     best_i = int(np.argmin(costs))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -201,7 +202,12 @@ class FitProblem:
             size = self.n * (2 if self.cost == "xi2" else 1)
             return np.full(size, PENALTY / math.sqrt(self.n))
         return residual_vector(theta_m, omega_m, self.theta, self.omega, cost=self.cost,
-                               omega_scale=self.omega_scale)
+                               omega_scale=self.omega_scale, a_theta_exp=self.a_theta_exp)
+
+    @cached_property
+    def a_theta_exp(self) -> np.ndarray:
+        """``sin(theta / 2)`` of the data (the Xi^2 angle amplitude, eq. amplitudes), computed once."""
+        return np.sin(0.5 * self.theta)
 
     def cost_value(self, x: np.ndarray) -> float:
         """The cost (Xi^2 [1] or mean squared angle residual [rad^2])."""

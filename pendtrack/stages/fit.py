@@ -102,7 +102,8 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     out_dir : path
         Output folder (created).
     config : Config
-        Uses ``[fit]`` (cost, starts, 5/4 rule, spread, seed, workers) and ``[models]`` (memory).
+        Uses ``[fit]`` (cost, starts, 5/4 rule, spreads, seed, profile, bootstrap, workers) and
+        ``[models]`` (memory).
     models : tuple of str, optional
         Model names (registry names); default ``config.fit.models``.
     force : bool
@@ -142,6 +143,8 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     art = read_artifact(kinematics, "kinematics")
     inputs = inputs_for(kinematics)
     sections: dict[str, Any] = {**config.sections("fit", "models"), "fitted_models": list(names)}
+    # the number of worker processes does not change a fit: not part of what the outputs depend on
+    sections["fit"] = {k: v for k, v in sections["fit"].items() if k != "workers"}
     files = {n: model_json_name(n) for n in names}
     paths = (out_dir / COMBINED, out_dir / PARQUET, *(out_dir / f for f in files.values()))
     if up_to_date(paths, "fit", inputs=inputs, config=sections, force=force):
@@ -166,7 +169,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         with progress_bar(fc.n_starts, f"fit {name}", enabled=progress) as advance:
             results[name] = fit_model(
                 model, t, theta, omega, alpha=alpha, ok=ok, cost=fc.cost, n_starts=fc.n_starts,
-                accept_ratio=fc.accept_ratio, start_spread=fc.start_spread, seed=fc.seed, workers=fc.workers,
+                accept_ratio=fc.accept_ratio, start_spread=fc.start_spread, omega0_spread=fc.omega0_spread,
+                seed=fc.seed, workers=fc.workers, profile=fc.profile, bootstrap=fc.bootstrap,
+                start_budget=fc.start_budget,
                 memory_s=config.models.memory_s, full_history=config.models.full_history, observation=obs,
                 on_progress=advance, source=str(kinematics))
 
