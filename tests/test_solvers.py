@@ -221,3 +221,16 @@ def test_pc_solution_is_smooth_in_the_friction_amplitude() -> None:
     coef, *_ = np.linalg.lstsq(a, runs, rcond=None)
     misfit = np.max(np.abs(runs - a @ coef)) / np.max(np.abs(runs[-1] - runs[0]))
     assert misfit < 1e-4, misfit
+
+
+def test_sin_cos_rotation_matches_libm() -> None:
+    # the predictor-corrector's sin/cos update: rotation of exact values by the angle step with
+    # Taylor polynomials; truncation < 2e-17 for |d| <= 0.5, so only rounding (a few ulp) is left
+    from pendtrack.models.kernels import SINCOS_STEP_MAX, sin_cos_after
+
+    rng = np.random.default_rng(5)
+    x0 = rng.uniform(-7.0, 7.0, 2000)
+    d = rng.uniform(-SINCOS_STEP_MAX, SINCOS_STEP_MAX, 2000)
+    got = np.array([sin_cos_after(np.sin(a), np.cos(a), b) for a, b in zip(x0, d)])
+    np.testing.assert_allclose(got[:, 0], np.sin(x0 + d), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got[:, 1], np.cos(x0 + d), rtol=0, atol=1e-15)
