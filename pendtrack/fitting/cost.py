@@ -171,9 +171,14 @@ def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.
         raise ValueError("no data sample in the cost")
     norm = 1.0 / np.sqrt(n)
     if cost == "xi2":
-        r_theta = np.sin(0.5 * theta_mod) - (np.sin(0.5 * theta_exp) if a_theta_exp is None else a_theta_exp)
-        r_omega = omega_scale * (omega_mod - omega_exp)
-        return np.concatenate((r_theta, r_omega)) * norm
+        r = np.empty(2 * n)
+        np.multiply(theta_mod, 0.5, out=r[:n])
+        np.sin(r[:n], out=r[:n])
+        r[:n] -= np.sin(0.5 * theta_exp) if a_theta_exp is None else a_theta_exp
+        np.subtract(omega_mod, omega_exp, out=r[n:])
+        r[n:] *= omega_scale
+        r *= norm
+        return r
     if cost == "theta":
         return (theta_mod - theta_exp) * norm
     raise ValueError(f"unknown cost {cost!r}; expected one of {COSTS}")

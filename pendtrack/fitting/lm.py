@@ -220,7 +220,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
             else:  # Broyden rank-one secant update
                 s2 = float(step @ step)
                 if s2 > 0:
-                    J = J + np.outer(r_new - r - _matvec(J, step), step) / s2
+                    J = J + (r_new - r - _matvec(J, step))[:, None] * (step / s2)[None, :]
                 fresh = False
             x, r, cost = x_new, r_new, cost_new
         elif not fresh:  # the secant model failed: refresh it before damping more

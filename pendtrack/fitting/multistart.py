@@ -167,20 +167,22 @@ class _Tracker:
     def jac(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
         lo, hi = self.problem.lower, self.problem.upper
         steps = self.problem.fd_steps(x)
-        cols = []
+        jac = np.empty((r0.size, x.size))
         for j in range(x.size):
             if self.central:
                 hp, hm = min(steps[j], hi[j] - x[j]), min(steps[j], x[j] - lo[j])
                 xp, xm = x.copy(), x.copy()
                 xp[j] += hp
                 xm[j] -= hm
-                cols.append((self(xp) - self(xm)) / (hp + hm))
+                np.subtract(self(xp), self(xm), out=jac[:, j])
+                jac[:, j] /= hp + hm
                 continue
             h = steps[j] if x[j] + steps[j] <= hi[j] else -min(steps[j], x[j] - lo[j])
             xp = x.copy()
             xp[j] += h
-            cols.append((self(xp) - r0) / h)
-        return np.column_stack(cols)
+            np.subtract(self(xp), r0, out=jac[:, j])
+            jac[:, j] /= h
+        return jac
 
 
 def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float], *, index: int = 0,

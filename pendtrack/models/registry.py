@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -45,7 +46,7 @@ class Model:
     terms: tuple[str, ...]
     description: str = ""
 
-    @property
+    @cached_property  # asked for on every model evaluation of a fit
     def param_names(self) -> tuple[str, ...]:
         """Ordered parameter names: ``Omega0`` then each term's, in catalogue order."""
         used = {"Omega0"}
