@@ -79,7 +79,7 @@ class FitConfig:
     seed: int = 0  # seed of the start draws (and of the bootstrap)
     profile: bool = True  # profile-likelihood standard errors per side (stderr_low, stderr_high)
     bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
-    start_budget: int = 40  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
+    start_budget: int = 30  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
     workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
 
 

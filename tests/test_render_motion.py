@@ -10,7 +10,7 @@ from pendtrack.config import RenderConfig
 from pendtrack.errors import ConfigError, ModelError
 from pendtrack.render import plan_render
 from pendtrack.render.motion import run_code, sample_motion, subsample_counts
-from pendtrack.render.physics import parse_params, resolve_params
+from pendtrack.render.physics import DEFAULT_PARAMS, parse_params, resolve_params
 from pendtrack.render.raster import _raster_nb, _raster_py
 from pendtrack.render.scene import Scene
 
@@ -114,8 +114,18 @@ def test_omega0_defaults_to_the_two_cuboid_formula_and_explicit_wins():
     assert p["Omega0"] == 4.0 and p["C2"] == 0.0
 
 
+def test_composed_model_gets_baseline_and_term_defaults():
+    model, p = resolve_params("standard+memory", {"G2": 0.01}, tile_length_m=0.0, x=1.48, l0_m=0.54, gravity=9.81)
+    assert model.name == "standard+memory"
+    assert set(p) == set(model.param_names)
+    assert p["C1"] == DEFAULT_PARAMS["standard"]["C1"] and p["beta"] == DEFAULT_PARAMS["fractional"]["beta"]
+    assert p["G2"] == 0.01
+
+
 @pytest.mark.parametrize("model, given, fragment", [
     ("nope", {}, "unknown model 'nope'"),
+    ("standard+magic", {}, "unknown term 'magic'"),
+    ("standard+viscous", {}, "already in model 'standard'"),
     ("standard", {"G1": 1.0}, "no parameter 'G1'"),
     ("standard", {"C0": -1.0}, "'C0'"),
 ])

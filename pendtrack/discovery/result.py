@@ -9,13 +9,7 @@ from typing import Any
 
 import numpy as np
 
-
-def _num(x: Any) -> float | None:
-    """A JSON-safe float (None for NaN/inf)."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
+from pendtrack.fitting.result import _num  # one JSON-safe float helper for every result
 
 
 @dataclass(frozen=True)

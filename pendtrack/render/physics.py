@@ -64,6 +64,9 @@ def resolve_params(model_name: str, given: Mapping[str, float], *, tile_length_m
                    gravity: float) -> tuple[Model, dict[str, float]]:
     """The model and its full, validated parameter set.
 
+    ``model_name`` is a registered model or a composed one, ``"<baseline>+<term>+..."``
+    (:func:`pendtrack.models.compose`, e.g. ``"standard+memory"``).
+
     ``Omega0`` defaults to the apparatus' ``two_cuboid_omega0(l1, x, l0, g)`` (``l1 = 0``
     without a tile); other parameters to :data:`DEFAULT_PARAMS`; ``given`` wins.
 
@@ -78,11 +81,16 @@ def resolve_params(model_name: str, given: Mapping[str, float], *, tile_length_m
         Unknown model, unknown parameter, a missing one (model without defaults) or a
         value out of its physical range.
     """
-    from pendtrack.models import get_model
+    from pendtrack.models import compose, get_model
 
-    model = get_model(model_name)
+    base_name, *extra = [part.strip() for part in str(model_name).split("+")]
+    model = compose(base_name, extra) if extra else get_model(base_name)
     params = {"Omega0": float(two_cuboid_omega0(tile_length_m, x=x, l0=l0_m, g=gravity))}
-    params.update(DEFAULT_PARAMS.get(model.name, {}))
+    # a composed model ("standard+memory"): its baseline's defaults, then each added term's
+    # parameters from the first built-in model that has them (G2, beta, p_f from fractional, ...)
+    for defaults in (DEFAULT_PARAMS.get(base_name, {}), *DEFAULT_PARAMS.values()):
+        for k, v in defaults.items():
+            params.setdefault(k, v)
     params = {k: v for k, v in params.items() if k in model.param_names}
     unknown = [k for k in given if k not in model.param_names]
     if unknown:
