@@ -91,3 +91,14 @@ def test_recovery_five_seeds(name, seed):
 @pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
 def test_recovery_fractional_memory_term_five_seeds(seed):
     check_recovery("fractional", seed, truth=MEMORY_ONLY, fixed={"G1": 0.0})
+
+
+def test_profile_sigmas_equal_sandwich_where_the_cost_is_quadratic():
+    # OPA's cost is quadratic over a standard error (measured: the profile sigmas equal the
+    # sandwich ones to < 1 %), so both sides must agree with stderr there; 10 % allows for the
+    # secant through two inner fits. The fractional model's differ by 10-30 % (curved valley).
+    t, theta, omega, alpha, ok, obs = record("opa", 0, TRUTHS["opa"])
+    res = fit_model(get_model("opa"), t, theta, omega, alpha=alpha, ok=ok, observation=obs, n_starts=2, seed=0,
+                    workers=0, profile=True)
+    for name, p in res.params.items():
+        assert abs(p.stderr_low / p.stderr - 1.0) < 0.1 and abs(p.stderr_high / p.stderr - 1.0) < 0.1, (name, p)

@@ -136,7 +136,8 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
     -------
     low, high : ndarray
         Standard-error equivalents below and above the value [parameter units]; ``inf`` where
-        the profile stays flat (unbounded), NaN where not computed.
+        the profile stays flat, NaN where not computed or where the value sits on its bound
+        on that side.
     """
     names = list(problem.names)
     m = problem.residuals(x).size
@@ -158,7 +159,7 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
             sigma = math.nan
             for _ in range(PROFILE_STEPS):
                 if not delta > 0:
-                    sigma = math.inf if room <= 0 else sigma
+                    sigma = math.nan if room <= 0 else sigma  # on its bound: no interval that side
                     break
                 v = float(x[j] + side * delta)
                 x0 = np.clip(x + cov[:, j] / cov[j, j] * (side * delta), problem.lower, problem.upper)[rest]

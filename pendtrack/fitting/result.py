@@ -62,7 +62,8 @@ class ParamEstimate:
         Block-bootstrap standard error [same unit]; NaN if not computed.
     stderr_low, stderr_high : float
         Profile-likelihood standard errors below and above ``value`` [same unit] (equal to
-        ``stderr`` where the cost is quadratic); NaN if not computed, inf if the profile is flat.
+        ``stderr`` where the cost is quadratic); NaN if not computed or on a bound on that side,
+        inf if the profile is flat.
     estimate : float
         The data-derived initial estimate [same unit].
     fixed : bool
