@@ -234,3 +234,31 @@ def test_sin_cos_rotation_matches_libm() -> None:
     got = np.array([sin_cos_after(np.sin(a), np.cos(a), b) for a, b in zip(x0, d)])
     np.testing.assert_allclose(got[:, 0], np.sin(x0 + d), rtol=0, atol=1e-15)
     np.testing.assert_allclose(got[:, 1], np.cos(x0 + d), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("pf", [0.7, 1.5, 2.0, 2.2, 4.7])
+def test_memory_pow_series_matches_libm(pf: float) -> None:
+    # |x|^(pf-1) of the memory function, carried from sample to sample by the binomial series
+    # (truncation < 1e-17 by construction) with a libm pow every REFRESH_STEPS steps and
+    # wherever x changes by more than the series' range: only rounding is left, a few ulp a
+    # step over at most REFRESH_STEPS steps, so 1e-14 relative (measured <= 4.4e-15)
+    from pendtrack.models.kernels import POW_SERIES_DEGREE, REFRESH_STEPS, binomial_series, memory_pair_next
+
+    c = get_model("fractional").pack({"Omega0": 5.05, "G1": 1e-4, "G2": 1e-3, "beta": 0.5, "p_f": pf})
+    omega = _run(c, 4000, 1 / 120, 3.0, 0.0, 100)[1]
+    inv_u, a = 0.37, pf - 1.0
+    b = np.empty(POW_SERIES_DEGREE + 1)
+    dmax = binomial_series(a, b)
+    assert 0.2 < dmax <= 0.25
+    y, r = abs(omega[0] * inv_u) ** a, 1.0 / (omega[0] * inv_u)
+    rel, series_steps = [], 0
+    for i in range(1, omega.size):
+        x = omega[i] * inv_u
+        series_steps += i % REFRESH_STEPS != 0 and abs(x * r - 1.0) <= dmax
+        g, dg, y, r = memory_pair_next(omega[i], inv_u, pf, r, y, b, dmax, i % REFRESH_STEPS == 0)
+        exact = abs(x) ** a
+        rel.append(abs(y / exact - 1.0))
+        assert g == pytest.approx(x * exact, rel=1e-14, abs=0.0)
+        assert dg == pytest.approx(pf * exact * inv_u, rel=1e-14, abs=0.0)
+    assert max(rel) < 1e-14, max(rel)
+    assert series_steps > 0.8 * omega.size  # the series, not the fallback, did the work

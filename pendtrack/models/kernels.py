@@ -14,11 +14,14 @@ G1 term) enter the corrector as their exact mean over the step with omega linear
 the step's ends, not as values at the grid points. Evaluated at the grid points they make
 the solution a kinked function of the parameters wherever a turning point falls near a
 grid point (and drop the order to 1.6-2.5, erratically); the mean keeps the solution C1 in
-the parameters and the scheme second order. And sin/cos of the corrected angle, needed on
-the step-to-step dependency chain, come from rotating the previous step's values by the
-(small) angle step with short polynomials (:func:`sin_cos_after`), refreshed from libm every
-:data:`SINCOS_REFRESH` steps: the same values to a few ulp (~1e-11 rad over 10^4 steps), 10 %
-less time. Used at the data step for models with memory.
+the parameters and the scheme second order. Two transcendental functions on the
+step-to-step dependency chain are replaced by updates of the previous step's values,
+refreshed from libm every :data:`REFRESH_STEPS` steps: sin/cos of the corrected angle by a
+rotation with short polynomials (:func:`sin_cos_after`, 10 % less time), and the memory
+function's ``|x|^(p_f - 1)`` by ``y_i (x_(i+1)/x_i)^(p_f - 1)`` with a binomial series
+(:func:`memory_pair_next`; a ``pow`` call cost ~15 % of the step, mostly in saving and
+restoring the loop's registers around it). Both give the libm values to a few ulp (~1e-11
+rad over 10^4 steps). Used at the data step for models with memory.
 
 ``rk_kernel_py`` -- classical RK4 with ``substeps`` sub-steps per output step for models
 without memory. The ``sgn(omega)`` discontinuity is handled as an event: within a
@@ -254,7 +257,7 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
 
 
 SINCOS_STEP_MAX = 0.5  # [rad] the rotation's polynomials are exact to < 2e-17 up to this angle step
-SINCOS_REFRESH = 32  # steps between exact libm sin/cos (the rotations in between add ~1 ulp each)
+REFRESH_STEPS = 32  # steps between exact libm sin/cos and pow (each step in between adds ~1 ulp)
 
 
 def sin_cos_after(s0, c0, d):  # noqa: ANN001, ANN201
@@ -295,6 +298,62 @@ def memory_pair(omega, inv_u, pf):  # noqa: ANN001, ANN201
     if pf == 1.0:
         return 0.0, inv_u
     return 0.0, math.inf
+
+
+POW_SERIES_DEGREE = 24  # degree of the binomial series that replaces pow between samples (series_ratio_pow is written out for it)
+POW_SERIES_DELTA = 0.25  # largest |x_(i+1)/x_i - 1| it is used for
+
+
+def binomial_series(a, out):  # noqa: ANN001, ANN201
+    """Fill ``out[k] = C(a, k)``, k = 0..POW_SERIES_DEGREE; return the ``|d|`` up to which
+    ``sum_k out[k] d^k`` gives ``(1 + d)^a`` to < 1e-17 relative (the first omitted term),
+    at most POW_SERIES_DELTA."""
+    b = 1.0
+    out[0] = 1.0
+    for k in range(1, POW_SERIES_DEGREE + 1):
+        b = b * (a - (k - 1)) / k
+        out[k] = b
+    nxt = abs(b * (a - POW_SERIES_DEGREE) / (POW_SERIES_DEGREE + 1))
+    dmax = POW_SERIES_DELTA
+    if nxt * dmax ** (POW_SERIES_DEGREE + 1) > 1e-17:
+        dmax = (1e-17 / nxt) ** (1.0 / (POW_SERIES_DEGREE + 1))
+    return dmax
+
+
+def series_ratio_pow(d, b):  # noqa: ANN001, ANN201
+    """``(1 + d)^a = sum_k b[k] d^k`` (``b`` from :func:`binomial_series`) by Estrin's scheme:
+    ~30 operations but only ~6 deep, so it costs the step's dependency chain ~a fifth of a ``pow``."""
+    d2 = d * d
+    d4 = d2 * d2
+    d8 = d4 * d4
+    d16 = d8 * d8
+    q0 = (b[0] + b[1] * d) + (b[2] + b[3] * d) * d2
+    q1 = (b[4] + b[5] * d) + (b[6] + b[7] * d) * d2
+    q2 = (b[8] + b[9] * d) + (b[10] + b[11] * d) * d2
+    q3 = (b[12] + b[13] * d) + (b[14] + b[15] * d) * d2
+    q4 = (b[16] + b[17] * d) + (b[18] + b[19] * d) * d2
+    q5 = (b[20] + b[21] * d) + (b[22] + b[23] * d) * d2
+    return ((q0 + q1 * d4) + (q2 + q3 * d4) * d8) + ((q4 + q5 * d4) + b[24] * d8) * d16
+
+
+def memory_pair_next(omega, inv_u, pf, r_prev, y_prev, b, dmax, fresh):  # noqa: ANN001, ANN201
+    """:func:`memory_pair` plus ``(y, 1/x)``, with ``y = |x|^(pf-1)`` from the previous sample's.
+
+    ``y = y_prev (x/x_prev)^(pf-1)`` by the binomial series (:func:`series_ratio_pow`) where
+    ``|x r_prev - 1| <= dmax`` (``r_prev = 1/x_prev``) and ``fresh`` is False; else a libm
+    ``pow``. The series' rounding (a few ulp a step) accumulates, so the kernel asks for a
+    fresh ``pow`` every :data:`REFRESH_STEPS` steps.
+    """
+    x = omega * inv_u
+    d = x * r_prev - 1.0
+    if not fresh and abs(d) <= dmax:
+        y = y_prev * series_ratio_pow(d, b)
+        return x * y, pf * y * inv_u, y, 1.0 / x
+    g, dg = memory_pair(omega, inv_u, pf)
+    xa = abs(x)
+    if xa > 0.0:
+        return g, dg, g / x, 1.0 / x
+    return g, dg, 0.0, math.inf
 
 
 def gl_dot(a, ia, b, ib, n):  # noqa: ANN001, ANN201
@@ -402,6 +461,14 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
     # at the corrected omega, the friction's roots at the predicted one -- enter with one
     # operation each; everything else is prepared beside them.
     om_base = omega + q_prev * h
+    # |x|^(pf-1) and 1/x at the current sample, x = omega/u (the memory function's pow)
+    bser = np.empty(POW_SERIES_DEGREE + 1)
+    dmax = binomial_series(pf - 1.0, bser)
+    y_i = 0.0
+    r_i = math.inf
+    if has_mem and omega != 0.0:
+        y_i = abs(omega * inv_u) ** (pf - 1.0)
+        r_i = 1.0 / (omega * inv_u)
     for i in range(n_steps):
         t1 = t_start + (i + 1) * h
         f1 = forcing[i + 1] if nf > 0 else 0.0
@@ -433,7 +500,8 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
         om_c = omega + (alpha_r + a_p) * h2 + q * h
         # then alpha re-evaluated once
         d_th = th_c - theta
-        if (i + 1) % SINCOS_REFRESH != 0 and abs(d_th) <= SINCOS_STEP_MAX:
+        refresh = (i + 1) % REFRESH_STEPS == 0
+        if not refresh and abs(d_th) <= SINCOS_STEP_MAX:
             st, ct = sin_cos_after(st, ct, d_th)
         else:
             st = math.sin(th_c)
@@ -441,7 +509,7 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
         a_c = accel_smooth(th_c, st, om_c, t1, kc) + f1
         if has_mem:
             a_c -= khb * (sigma - gref)
-            gi, dgi = memory_pair(om_c, inv_u, pf)
+            gi, dgi, y_i, r_i = memory_pair_next(om_c, inv_u, pf, r_i, y_i, bser, dmax, refresh)
             gp[pad + i + 1] = gi - gref
             a_c -= khb * gi
         m_i, big_m_i = friction_pair(abs(om_c), kc)
@@ -472,11 +540,12 @@ def _compile() -> None:
     from numba.extending import register_jitable
 
     for fn in (unpack, accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at,
-               memory_fn, memory_pair, sin_cos_after):
+               memory_fn, memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after):
         register_jitable(inline="always")(fn)
     for fn in (direction, rk4_step):  # larger: ordinary calls (inlining them costs compile time)
         register_jitable(fn)
     register_jitable(fastmath=True)(gl_dot)
+    register_jitable(binomial_series)
     # error_model="numpy": no zero-division checks in the loops (packed models never divide by 0);
     # fastmath contract/arcp only (fused multiply-add, division by reciprocal): the per-step
     # dependency chain gets ~30 % shorter; no reassociation, no NaN/inf assumptions. The

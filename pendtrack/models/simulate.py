@@ -290,10 +290,11 @@ def _resample(grid: np.ndarray, th: np.ndarray, om: np.ndarray, al: np.ndarray,
     return (CubicHermiteSpline(grid, th, om)(x), CubicHermiteSpline(grid, om, al)(x), np.interp(x, grid, al))
 
 
-def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    out = []
-    for a in arrays:
-        a = np.array(a, dtype=np.float64)  # a copy: the caller's array stays writable
+def _frozen(t: np.ndarray, *owned: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Read-only float64 arrays: a copy of ``t`` (the caller's array stays writable), the
+    ``owned`` arrays (made here, no other reference) as they are."""
+    out = [np.array(t, dtype=np.float64)]
+    out.extend(np.asarray(a, dtype=np.float64) for a in owned)
+    for a in out:
         a.setflags(write=False)
-        out.append(a)
     return tuple(out)
