@@ -300,3 +300,23 @@ def test_savgol_pair_kernel_matches_twin_and_numpy():
         # sums of 25 terms of size ~|x| ~ 0.1 (x 120 for the derivative): rounding ~1e-15 relative
         np.testing.assert_allclose(a[12:-12], ref0, rtol=0, atol=1e-13)
         np.testing.assert_allclose(b[12:-12], ref1, rtol=0, atol=1e-10)
+
+
+def test_half_angle_sine_kernel_matches_twin_and_numpy():
+    # A_theta = sin(theta/2) of the model in the Xi^2 residual: range reduction by pi (exact to
+    # ~86 bits) and a Taylor polynomial whose truncation is < 4e-18, so only rounding is left:
+    # a few 1e-16 absolute, relative too near theta = 0 (no cancellation in r (1 - ...))
+    from pendtrack.fitting.cost import half_angle_sine_py, half_sine_kernel
+
+    rng = np.random.default_rng(4)
+    theta = np.concatenate([rng.uniform(-7.0, 7.0, 3000), rng.uniform(-200.0, 200.0, 1000),
+                            rng.uniform(-1e-4, 1e-4, 500), [0.0, np.pi, -np.pi, 2 * np.pi, 3 * np.pi]])
+    outs = [np.full(theta.size, np.nan) for _ in range(2)]
+    half_angle_sine_py(theta, outs[0])
+    half_sine_kernel()(theta, outs[1])
+    ref = np.sin(0.5 * theta)
+    for out in outs:
+        np.testing.assert_allclose(out, ref, rtol=0, atol=4e-16)
+        small = np.abs(theta) < 1e-4
+        np.testing.assert_allclose(out[small], ref[small], rtol=4e-16, atol=1e-300)
+    np.testing.assert_allclose(outs[0], outs[1], rtol=0, atol=4e-16)

