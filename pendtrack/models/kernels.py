@@ -19,9 +19,10 @@ step-to-step dependency chain are replaced by updates of the previous step's val
 refreshed from libm every :data:`REFRESH_STEPS` steps: sin/cos of the corrected angle by a
 rotation with short polynomials (:func:`sin_cos_after`, 10 % less time), and the memory
 function's ``|x|^(p_f - 1)`` by ``y_i (x_(i+1)/x_i)^(p_f - 1)`` with a binomial series
-(:func:`memory_pair_next`; a ``pow`` call cost ~15 % of the step, mostly in saving and
-restoring the loop's registers around it). Both give the libm values to a few ulp (~1e-11
-rad over 10^4 steps). Used at the data step for models with memory.
+(:func:`memory_pair_next`; the ``pow`` call cost ~17 % of the step, and neither computing it
+off the dependency chain at an extrapolated omega nor an inline ``exp(a ln x)`` was faster:
+a call saves and restores the loop's registers). Both give the libm values to a few ulp
+(~1e-11 rad over 10^4 steps). Used at the data step for models with memory.
 
 ``rk_kernel_py`` -- classical RK4 with ``substeps`` sub-steps per output step for models
 without memory. The ``sgn(omega)`` discontinuity is handled as an event: within a
