@@ -31,6 +31,8 @@ class LensConfig:
 @dataclass(frozen=True, kw_only=True)
 class VideoConfig:
     fps: float = 0.0  # 0: time from the container's presentation timestamps; >0 overrides [1/s]
+    start: float = 0.0  # first time read, from the video's first frame (which stays t = 0) [s]
+    end: float = 0.0  # last time read [s]; 0 = to the last frame
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -45,6 +47,9 @@ class TrackConfig:
     max_coast_frames: int = 30  # frames without an ok match before every frame is searched whole
     min_contrast_ratio: float = 0.3  # matched patch contrast must be within [r, 1/r] of the template's
     track_in_corrected: bool = False  # True: track in lens-corrected frames (only the search window is remapped)
+    acquire_step_s: float = 0.05  # before the marker is found, look for it every this often (then refine back) [s]
+    acquire_window_s: float = 0.5  # candidates are told apart by their motion over this time after acquisition [s]
+    max_drift_px: float = 3.0  # an evolving template is re-anchored on the first when it drifts further [px]
 
 
 @dataclass(frozen=True, kw_only=True)

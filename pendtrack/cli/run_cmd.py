@@ -4,19 +4,37 @@ from __future__ import annotations
 
 import click
 
-from pendtrack.cli.common import CommonArgs, common_options
+from pendtrack.cli.common import (CommonArgs, apply_flags, axle_option, common_options, lens_options, marker_options,
+                                  video_options, with_lens_and_video)
 
 
 @click.command("run")
 @click.argument("video", type=click.Path(dir_okay=False))
 @click.option("--model", "models", multiple=True,
               help="Model to fit (repeatable); default: the config's [fit] models (classic, opa, fractional).")
+@marker_options
+@lens_options
+@video_options
+@axle_option
+@click.option("--window-s", "savgol_window_s", type=float, default=None,
+              help="Savitzky-Golay window [s] (config [kinematics] savgol_window_s; paper: 25 frames at 120 fps).")
 @common_options(default_out="results")
-def run(video: str, models: tuple[str, ...], common: CommonArgs) -> None:
-    """Run the whole pipeline on VIDEO: track, angle, kinematics, fit."""
+def run(video: str, models: tuple[str, ...], roi: tuple[int, ...] | None, marker_color: str | None,
+        min_score: float | None, fov_deg: float | None, fixed_pixels: float | None, projection: str | None,
+        fps: float | None, start: float | None, end: float | None, axle: tuple[float, ...] | None,
+        savgol_window_s: float | None, common: CommonArgs) -> None:
+    """Run the whole pipeline on VIDEO: track, angle, kinematics, fit.
+
+    The flags are those of `track`, `angle` and `kinematics` (and the config keys of the same names).
+    """
     from pendtrack.stages.run import run_pipeline
 
-    result = run_pipeline(video, out_dir=common.out, config=common.config, models=models or None,
+    config = with_lens_and_video(common.config, fov_deg=fov_deg, fixed_pixels=fixed_pixels, projection=projection,
+                                 fps=fps, start=start, end=end)
+    config = apply_flags(config, "track", roi=roi, marker_color=marker_color, min_score=min_score)
+    config = apply_flags(config, "angle", axle=axle)
+    config = apply_flags(config, "kinematics", savgol_window_s=savgol_window_s)
+    result = run_pipeline(video, out_dir=common.out, config=config, models=models or None,
                           force=common.force, progress=common.progress)
     for name, stage in result.stages.items():
         state = "up to date" if stage.skipped else "done"

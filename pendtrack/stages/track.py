@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -18,7 +19,9 @@ from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.track.colour import MarkerColour, parse_marker_colour
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
 from pendtrack.track.tracker import TrackParams, TrackResult, track_frames
-from pendtrack.video.reader import VideoReader
+from pendtrack.video.reader import VideoReader, check_time_range
+
+log = logging.getLogger(__name__)
 
 CONFIG_SECTIONS = ("lens", "video", "track")
 MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a track
@@ -33,7 +36,8 @@ def track_params(config: Config) -> TrackParams:
         return TrackParams(min_score=tc.min_score, search_margin_px=tc.search_margin_px,
                            quick_margin_px=tc.quick_margin_px, evolution_rate=tc.evolution_rate,
                            refine=tc.refine, max_coast_frames=tc.max_coast_frames,
-                           min_contrast_ratio=tc.min_contrast_ratio)
+                           min_contrast_ratio=tc.min_contrast_ratio, acquire_step_s=tc.acquire_step_s,
+                           acquire_window_s=tc.acquire_window_s, max_drift_px=tc.max_drift_px)
     except ValueError as exc:
         raise ConfigError(f"[track] {exc}") from None
 
@@ -91,7 +95,11 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     out_dir : path
         Output folder (created).
     config : Config
-        Uses ``[lens]``, ``[video]`` and ``[track]``.
+        Uses ``[lens]``, ``[video]`` and ``[track]``. Only the frames from ``video.start``
+        to ``video.end`` are read; their rows keep the video's frame indices and times (0
+        at its first frame), and frames outside that range have no row. Frames before the
+        marker's acquisition (:func:`pendtrack.track.tracker.track_frames`) are rows with
+        ``ok = False``.
     force : bool
         Recompute even if the output is up to date.
     progress : bool
@@ -107,7 +115,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     VideoError
         Missing, unreadable, empty or truncated video.
     TrackingError
-        No marker in the first frame, or lost in more than half of the frames.
+        No marker in any frame, or lost in more than half of the frames from its acquisition.
     ConfigError
         Invalid ``[lens]``/``[track]`` values.
     """
@@ -125,8 +133,14 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         raise ConfigError(f"[track] {exc}") from None
     params = track_params(config)
     corrected = config.track.track_in_corrected
+    vc = config.video
+    try:
+        check_time_range(vc.start, vc.end)
+    except ValueError as exc:
+        raise ConfigError(f"[video] {exc} (--start, --end)") from None
     t0 = time.perf_counter()
-    with VideoReader(video, fps=config.video.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH) as reader:
+    with VideoReader(video, fps=vc.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH, start=vc.start,
+                     end=vc.end) as reader:
         info = reader.info
         fisheye = _fisheye(config, info.width, info.height)
         sampler = make_sampler(colour, fisheye, corrected=corrected)
@@ -138,10 +152,17 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
                 raise TrackingError(str(exc), path=video) from None
     elapsed = time.perf_counter() - t0
     n = int(result.frame.size)
-    if result.ok_fraction < MIN_OK_FRACTION:
-        raise TrackingError(f"marker lost in {n - int(result.ok.sum())} of {n} frames "
+    n_after = result.n_after_acquisition
+    if result.ok.sum() < MIN_OK_FRACTION * n_after:
+        acq = result.acquisition
+        found = f", found at {acq['t']:.3f} s" if acq["row"] else ""
+        raise TrackingError(f"marker lost in {n_after - int(result.ok.sum())} of {n_after} frames{found} "
                             f"(best scores below min_score {params.min_score}); try --roi or --min-score",
                             path=video)
+    if result.drift["alarm"]:
+        log.warning("%s: the evolving template drifted up to %.1f px from the first one (limit %.1f px, "
+                    "re-anchored %d times)", video, result.drift["max_px"], params.max_drift_px,
+                    result.drift["reanchors"])
     df = track_dataframe(result, fisheye, corrected=corrected)
     extra = {
         "video": info.to_dict(),
@@ -151,9 +172,11 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         "decode_threads": DECODE_THREADS,
         "decode_prefetch": DECODE_PREFETCH,
         "tracking_fps": n / elapsed if elapsed > 0 else None,
+        "time_range_s": {"start": vc.start, "end": vc.end if vc.end > 0 else None},
         **result.to_dict(),
     }
     write_artifact(df, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
                                                              extra=extra))
-    facts = {"frames": n, "ok_fraction": result.ok_fraction, "fps": extra["tracking_fps"]}
+    facts = {"frames": n, "ok_fraction": result.ok_fraction, "fps": extra["tracking_fps"],
+             "acquired_t": result.acquisition["t"], "drift_alarm": result.drift["alarm"]}
     return StageOutput((out,), facts=facts)

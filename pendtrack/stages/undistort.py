@@ -61,7 +61,7 @@ def undistort_stage(video: str | Path, *, out_dir: str | Path, config: Config, f
     if (not force and out_video.is_file()
             and is_up_to_date(sidecar, "undistort", inputs=inputs, config=sections)):
         return StageOutput((out_video, sidecar), skipped=True)
-    with VideoReader(video, fps=config.video.fps) as reader:
+    with VideoReader(video, fps=config.video.fps, start=config.video.start, end=config.video.end) as reader:
         info = reader.info
         try:
             fisheye = fisheye_from_config(config.lens, width=info.width, height=info.height)

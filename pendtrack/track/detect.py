@@ -16,6 +16,8 @@ from pendtrack.track.sampler import RawSampler
 
 MIN_CONTRAST = 12.0  # feature levels (8-bit) the marker must stand above its surroundings
 MIN_SIGMAS = 8.0  # ... and above this many robust standard deviations of the background
+CANDIDATE_LEVELS = 3  # marker_candidates looks this many times, each below the brightest blobs found so far
+MAX_HUE_DEG = 35.0  # a candidate's chroma must point within this angle of the marker colour's [deg]
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,41 @@ class Detection:
                 "background": self.background, "colour": self.colour.to_dict()}
 
 
+def _feature_levels(y: np.ndarray, u: np.ndarray, v: np.ndarray,
+                    colour: MarkerColour) -> tuple[np.ndarray, float, float]:
+    """Blurred half-resolution feature, its background level and the level a marker must reach."""
+    half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
+    bg = float(np.median(half))
+    # noise from neighbour differences, blind to smooth lighting gradients
+    sigma = 1.4826 * float(np.median(np.abs(np.diff(half, axis=1)))) / np.sqrt(2) + 1e-6
+    return half, bg, max(MIN_CONTRAST, MIN_SIGMAS * sigma)
+
+
+def _compact_blobs(half: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]]:
+    """Labels, stats and ``(label, mass)`` of the compact blobs of ``half > thr`` (see :func:`find_marker`)."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((half > thr).astype(np.uint8), connectivity=8)
+    hh, hw = half.shape
+    blobs = []
+    for k in range(1, n):
+        x, yb, w, h, area = stats[k]
+        if w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h:
+            continue
+        blobs.append((k, float((half[labels == k] - thr).sum())))
+    return labels, stats, blobs
+
+
+def _refine_blob(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour,
+                 stat: np.ndarray) -> Detection | None:
+    """Refine a half-resolution blob (its ``stats`` row) at full resolution."""
+    x, yb, w, h, _ = stat
+    # refine at full resolution in a window around the blob (half-res sample i at 2i + 0.5)
+    pad = max(w, h) + 4
+    x0, y0 = max(2 * (x - pad), 0), max(2 * (yb - pad), 0)
+    x1, y1 = min(2 * (x + w + pad), y.shape[1]), min(2 * (yb + h + pad), y.shape[0])
+    return _refine(RawSampler(colour, width=y.shape[1], height=y.shape[0]).window(y, u, v, x0, y0, x1 - x0, y1 - y0),
+                   x0, y0, colour)
+
+
 def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> Detection | None:
     """The most marker-like compact blob of the frame, or None when nothing stands out.
 
@@ -67,33 +104,65 @@ def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColou
     integrated contrast among compact ones (filling >= 40 % of their bounding box, aspect
     ratio <= 3, smaller than a quarter of the frame) wins, and is then refined at full resolution.
     """
-    half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
-    bg = float(np.median(half))
-    # noise from neighbour differences, blind to smooth lighting gradients
-    sigma = 1.4826 * float(np.median(np.abs(np.diff(half, axis=1)))) / np.sqrt(2) + 1e-6
+    half, bg, floor = _feature_levels(y, u, v, colour)
     peak = float(half.max())
-    if peak - bg < max(MIN_CONTRAST, MIN_SIGMAS * sigma):
+    if peak - bg < floor:
         return None
-    thr = bg + 0.5 * (peak - bg)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats((half > thr).astype(np.uint8), connectivity=8)
-    hh, hw = half.shape
-    best, best_mass = -1, 0.0
-    for k in range(1, n):
-        x, yb, w, h, area = stats[k]
-        if w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h:
-            continue
-        mass = float((half[labels == k] - thr).sum())
-        if mass > best_mass:
-            best, best_mass = k, mass
-    if best < 0:
+    _, stats, blobs = _compact_blobs(half, bg + 0.5 * (peak - bg))
+    if not blobs:
         return None
-    x, yb, w, h, _ = stats[best]
-    # refine at full resolution in a window around the blob (half-res sample i at 2i + 0.5)
-    pad = max(w, h) + 4
-    x0, y0 = max(2 * (x - pad), 0), max(2 * (yb - pad), 0)
-    x1, y1 = min(2 * (x + w + pad), y.shape[1]), min(2 * (yb + h + pad), y.shape[0])
-    return _refine(RawSampler(colour, width=y.shape[1], height=y.shape[0]).window(y, u, v, x0, y0, x1 - x0, y1 - y0),
-                   x0, y0, colour)
+    best = max(blobs, key=lambda b: b[1])[0]
+    return _refine_blob(y, u, v, colour, stats[best])
+
+
+def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour, *,
+                      levels: int = CANDIDATE_LEVELS) -> list[Detection]:
+    """Every marker-like compact blob of the frame (at most a few levels of contrast), largest first.
+
+    As :func:`find_marker`, but keeps every compact blob above half the peak contrast,
+    then masks the pixels above that threshold and repeats with the peak of the rest (up
+    to ``levels`` times), so a fainter marker beside a brighter object of its colour is
+    kept. A chroma colour's blob must also *have* that colour: the mean (Cb, Cr) of its
+    pixels minus the frame's median must point within :data:`MAX_HUE_DEG` of the colour's
+    chroma direction (skin is reddish, not pink).
+
+    Returns
+    -------
+    list of Detection
+        Refined at full resolution, without duplicates (centres closer than a radius),
+        largest radius first; empty when nothing stands out.
+    """
+    half, bg, floor = _feature_levels(y, u, v, colour)
+    work = half.copy()
+    out: list[Detection] = []
+    du0 = dv0 = 0.0
+    if colour.uses_chroma:
+        du0, dv0 = float(np.median(u[::4, ::4])), float(np.median(v[::4, ::4]))
+    cos_min = float(np.cos(np.radians(MAX_HUE_DEG)))
+    for _ in range(levels):
+        peak = float(work.max())
+        if peak - bg < floor:
+            break
+        thr = bg + 0.5 * (peak - bg)
+        labels, stats, blobs = _compact_blobs(work, thr)
+        for k, _mass in blobs:
+            if colour.uses_chroma:
+                sel = labels == k
+                du, dv = float(u[sel].mean()) - du0, float(v[sel].mean()) - dv0
+                norm = np.hypot(du, dv) * np.hypot(colour.wu, colour.wv)
+                if norm <= 0 or (du * colour.wu + dv * colour.wv) / norm < cos_min:
+                    continue
+            det = _refine_blob(y, u, v, colour, stats[k])
+            if det is None:
+                continue
+            cx, cy = 2 * float(stats[k][0] + stats[k][2] / 2), 2 * float(stats[k][1] + stats[k][3] / 2)
+            if np.hypot(det.x - cx, det.y - cy) > max(stats[k][2], stats[k][3]) + 2:
+                continue  # the refinement went to a neighbour
+            if any(np.hypot(det.x - o.x, det.y - o.y) < max(det.radius, o.radius) for o in out):
+                continue
+            out.append(det)
+        work[cv2.dilate((work > thr).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)] = bg
+    return sorted(out, key=lambda d: -d.radius)
 
 
 def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection | None:

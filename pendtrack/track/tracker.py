@@ -19,9 +19,13 @@ Per frame:
    Otherwise the frame is kept with ``ok = False``, its best score and the position of
    its best (rejected) candidate, never used as a prediction.
 
-The template is cut from the first frame around the detected marker (by colour or in a
-user ROI) and, with ``evolution_rate`` a > 0, blended each ok frame as
-``template = (1 - a) template + a patch`` (Tracker's evolution rate; 0 in the paper).
+The marker is acquired in the first frame where it is visible, told apart from other
+objects of its colour by its motion (:class:`_Acquirer`); earlier frames are kept with
+``ok = False``. The template is cut from that frame around the detected marker (by colour
+or in a user ROI) and, with ``evolution_rate`` a > 0, blended each ok frame as
+``template = (1 - a) template + a patch`` (Tracker's evolution rate; 0 in the paper). An
+evolving template is compared with the first every few frames and shifted back onto it
+when its content has drifted more than ``max_drift_px`` (the drift alarm of the result).
 Coordinates are those of the sampler: raw frame px (:class:`RawSampler`; with a fisheye,
 :class:`WarpedRawSampler` keeps the template in corrected space and warps it to the lens'
 local distortion at each position), or lens-corrected px (:class:`CorrectedSampler`).
@@ -29,19 +33,28 @@ local distortion at each position), or lens-corrected px (:class:`CorrectedSampl
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import logging
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from itertools import chain
 
 import cv2
 import numpy as np
 
 from pendtrack.errors import TrackingError
 from pendtrack.track.colour import MarkerColour
-from pendtrack.track.detect import Detection, find_marker, marker_in_roi
+from pendtrack.track.detect import Detection, marker_candidates, marker_in_roi
 from pendtrack.track.match import match_template, weighted_centroid
 from pendtrack.track.sampler import RawSampler
 
+log = logging.getLogger(__name__)
+
 REFINE_METHODS = ("quadratic", "centroid")
+DRIFT_CHECK_EVERY = 8  # evolutions between two measurements of the template's drift
+MOVED_PX = 2.0  # a candidate moved when it strayed further than this (and than half its radius) [px]
+LINK_REACH = 0.25  # a candidate is followed to the nearest one within this share of the frame diagonal
+RADIUS_RATIO = 2.0  # ... whose radius is within this factor of its own
+MIN_RADIUS_SHARE = 0.75  # acquired only when its radius is >= this share of its median over the window
 WARP_TOLERANCE = 1e-2  # re-warp the template when an entry of the lens Jacobian changed by more than this
 TEMPLATE_REACH = 1.3  # template half-side in marker radii (+ 2 px): the marker and a rim of surroundings
 
@@ -69,6 +82,15 @@ class TrackParams:
     min_contrast_ratio : float
         The matched patch's feature standard deviation must lie within
         ``[r, 1 / r]`` times the template's, r in (0, 1].
+    acquire_step_s : float
+        Until the marker is found, frames are searched this often [s]; the frames since
+        the last search are then searched one by one (the marker is acquired in the first
+        frame where it is visible).
+    acquire_window_s : float
+        Candidates are told apart by their motion over this time after acquisition [s].
+    max_drift_px : float
+        An evolving template whose content has moved further than this from the first
+        template is shifted back onto it (re-anchored) [px of the template].
     """
 
     min_score: float = 0.6
@@ -78,8 +100,17 @@ class TrackParams:
     refine: str = "quadratic"
     max_coast_frames: int = 30
     min_contrast_ratio: float = 0.3
+    acquire_step_s: float = 0.05
+    acquire_window_s: float = 0.5
+    max_drift_px: float = 3.0
 
     def __post_init__(self) -> None:
+        if not (np.isfinite(self.acquire_step_s) and self.acquire_step_s > 0):
+            raise ValueError(f"acquire_step_s must be > 0 s, got {self.acquire_step_s}")
+        if not (np.isfinite(self.acquire_window_s) and self.acquire_window_s >= 0):
+            raise ValueError(f"acquire_window_s must be >= 0 s, got {self.acquire_window_s}")
+        if not (np.isfinite(self.max_drift_px) and self.max_drift_px > 0):
+            raise ValueError(f"max_drift_px must be > 0 px, got {self.max_drift_px}")
         if not -1.0 < self.min_score <= 1.0:
             raise ValueError(f"min_score must be in (-1, 1], got {self.min_score}")
         if self.search_margin_px < 1 or self.quick_margin_px < 1:
@@ -116,6 +147,15 @@ class TrackResult:
         The marker's radius in the first frame [px of the result's coordinates].
     searches : dict
         How many frames needed the wide window and the whole-frame search.
+    acquisition : dict
+        Where and how the marker was found: ``frame``, ``t`` [s], ``row`` (its row in
+        these arrays; earlier rows are not ok), ``method`` (``roi``, ``motion``: the one
+        candidate that moved, ``single``: the only candidate, ``largest``: several and
+        none seen moving), ``candidates`` (how many in that frame).
+    drift : dict
+        The evolving template against the first: ``max_px`` (largest drift measured),
+        ``reanchors`` (times it was shifted back), ``limit_px``, ``alarm`` (True when the
+        limit was exceeded at least once).
     """
 
     frame: np.ndarray
@@ -128,15 +168,23 @@ class TrackResult:
     template_size: int
     radius: float
     searches: dict[str, int]
+    acquisition: dict[str, object]
+    drift: dict[str, object]
 
     @property
     def ok_fraction(self) -> float:
         return float(self.ok.mean()) if self.ok.size else 0.0
 
+    @property
+    def n_after_acquisition(self) -> int:
+        """Frames from the acquisition on (those where the marker can be lost)."""
+        return int(self.frame.size) - int(self.acquisition["row"])  # type: ignore[call-overload]
+
     def to_dict(self) -> dict[str, object]:
         return {"n_frames": int(self.frame.size), "n_ok": int(self.ok.sum()), "ok_fraction": self.ok_fraction,
                 "detection": self.detection.to_dict(), "template_size": self.template_size, "radius_px": self.radius,
-                "searches": dict(self.searches)}
+                "searches": dict(self.searches), "acquisition": dict(self.acquisition),
+                "template_drift": dict(self.drift)}
 
 
 class _Template:
@@ -164,28 +212,6 @@ class _Template:
         self._small = None
 
 
-def detect_first(y: np.ndarray, u: np.ndarray, v: np.ndarray, *, colour: MarkerColour,
-                 roi: tuple[int, ...] = ()) -> Detection:
-    """The marker in the first frame: inside ``roi`` (x, y, w, h) if given, else by colour.
-
-    Raises
-    ------
-    TrackingError
-        Nothing marker-like (no path: the caller adds the file).
-    """
-    if roi:
-        if len(roi) != 4 or roi[2] < 5 or roi[3] < 5:
-            raise TrackingError(f"roi must be x, y, w, h with w, h >= 5 px, got {tuple(roi)}")
-        det = marker_in_roi(y, u, v, tuple(int(a) for a in roi))  # type: ignore[arg-type]
-        if det is None:
-            raise TrackingError(f"no marker stands out in the roi {tuple(roi)} of the first frame")
-        return det
-    det = find_marker(y, u, v, colour)
-    if det is None:
-        raise TrackingError(f"no {colour.name} marker found in the first frame (try --marker-color or --roi)")
-    return det
-
-
 def make_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarray,
                   det: Detection) -> tuple[_Template, float, float]:
     """Cut the template around a detection; returns it and the centre in tracking coordinates.
@@ -211,6 +237,25 @@ def make_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     return _Template(image, radius, det.contrast), tx, ty
 
 
+def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tuple[float, float]:
+    """How far the content of ``current`` has moved from ``anchor`` (same-size templates) [px].
+
+    The anchor's centre, cropped ``reach`` px from each side, is matched (normalised
+    correlation, sub-pixel peak) inside ``current``; the offset of the best match from the
+    centre is the drift, at most ``reach`` per axis (a larger drift reads as ``reach``).
+    """
+    side = anchor.shape[0]
+    reach = min(reach, (side - 5) // 2)
+    if reach < 1:
+        return 0.0, 0.0
+    core = anchor[reach:side - reach, reach:side - reach]
+    m = match_template(current, core)
+    if m is None:
+        return 0.0, 0.0
+    c = (side - 1) / 2.0
+    return m.x - c, m.y - c
+
+
 class MarkerTracker:
     """Frame-by-frame tracking state (prediction history, template, counters).
 
@@ -233,6 +278,10 @@ class MarkerTracker:
         self._warp_key: tuple[int, int] | None = None
         self._warp_jac: tuple[float, float, float, float] | None = None
         self._warped: tuple[np.ndarray, float] = (template.image, template.std)
+        self._anchor = template.image.copy()
+        self._n_evolved = 0
+        self.drift_max = 0.0
+        self.reanchors = 0
 
     def _template_at(self, px: float, py: float) -> tuple[np.ndarray, float]:
         """The template (and its standard deviation) for a marker near ``(px, py)``."""
@@ -376,6 +425,27 @@ class MarkerTracker:
         else:
             patch = cv2.getRectSubPix(win, shape, (mx - x0, my - y0))
         self.template.evolve(patch, self.params.evolution_rate)
+        self._n_evolved += 1
+        if self._n_evolved % DRIFT_CHECK_EVERY == 0:
+            self._bound_drift()
+
+    def _bound_drift(self) -> None:
+        """Measure the evolved template's drift from the first; shift it back beyond ``max_drift_px``."""
+        limit = self.params.max_drift_px
+        dx, dy = template_drift(self._anchor, self.template.image, reach=int(np.ceil(limit)) + 2)
+        d = float(np.hypot(dx, dy))
+        self.drift_max = max(self.drift_max, d)
+        if d > limit:
+            m = np.array([[1.0, 0.0, -dx], [0.0, 1.0, -dy]])
+            img = self.template.image
+            self.template.image = cv2.warpAffine(img, m, img.shape[::-1], flags=cv2.INTER_LINEAR,
+                                                 borderMode=cv2.BORDER_REPLICATE)
+            self.template.evolve(self.template.image, 0.0)  # refresh its statistics
+            self._warp_key = None
+            self._warp_jac = None
+            self._warped = (self.template.image, self.template.std)
+            self.reanchors += 1
+            log.warning("template drifted %.1f px from the first template: re-anchored", d)
 
     def _centroid(self, win: np.ndarray, wx: float, wy: float) -> tuple[float, float]:
         """Feature-weighted centroid near ``(wx, wy)`` [window px], two passes; falls back to the input."""
@@ -390,6 +460,181 @@ class MarkerTracker:
         return wx, wy
 
 
+class _Acquirer:
+    """Find the marker in a stream of frames: the first frame where it is visible and usable.
+
+    Frames are searched every ``acquire_step_s`` for candidates (compact blobs of the
+    marker colour, or a marker standing out in the ROI). The candidates of a search frame are told apart by what they do over
+    the next ``acquire_window_s``: each is followed, search after search, to the nearest
+    candidate of similar size; the marker is the one that moves (a poster of its colour
+    does not), the largest if several move together (a bead riding on it is smaller). A
+    candidate seen smaller than ``MIN_RADIUS_SHARE`` of its median size over the window is
+    partly hidden (a hand). When no candidate moves, the search moves on (a poster is all
+    there is to see while a hand hides the marker); when the video ends first, the largest
+    candidate of the last search is taken (a marker that never moves: pass a ROI to track it
+    from the start). Once the marker is chosen in a search frame, the frames since the
+    previous search are searched back for it, so acquisition is not late by a search step.
+    """
+
+    def __init__(self, frames: Iterator, *, sampler: RawSampler, params: TrackParams, roi: tuple[int, ...]) -> None:
+        self.frames = frames
+        self.sampler = sampler
+        self.params = params
+        self.roi = tuple(int(a) for a in roi)
+        if roi and (len(roi) != 4 or roi[2] < 5 or roi[3] < 5):
+            raise TrackingError(f"roi must be x, y, w, h with w, h >= 5 px, got {tuple(roi)}")
+        self.colour = sampler.colour
+        self.pending: list = []
+        self.skipped: list = []  # frames before the acquisition (recorded as not ok)
+        self.ended = False
+        self._cache: dict[int, list[Detection]] = {}
+        self.n_searched = 0
+
+    def _next(self) -> object | None:
+        if self.pending:
+            return self.pending.pop(0)
+        fr = next(self.frames, None)
+        if fr is None:
+            self.ended = True
+        return fr
+
+    def candidates(self, fr: object) -> list[Detection]:
+        """Marker candidates of a frame (cached by frame index), largest first."""
+        key = fr.index  # type: ignore[attr-defined]
+        if key not in self._cache:
+            self.n_searched += 1
+            if self.roi:
+                det = marker_in_roi(fr.y, fr.u, fr.v, self.roi)  # type: ignore[attr-defined, arg-type]
+                self._cache[key] = [] if det is None else [det]
+            else:
+                self._cache[key] = marker_candidates(fr.y, fr.u, fr.v, self.colour)  # type: ignore[attr-defined]
+        return self._cache[key]
+
+    def usable(self, fr: object) -> list[tuple[Detection, tuple[_Template, float, float]]]:
+        """Candidates a template can be cut around (not too close to the frame's edge)."""
+        out = []
+        for det in self.candidates(fr):
+            self.sampler.colour = det.colour
+            try:
+                out.append((det, make_template(self.sampler, fr.y, fr.u, fr.v, det)))  # type: ignore[attr-defined]
+            except TrackingError:
+                continue
+        return out
+
+    def run(self) -> tuple[Detection, tuple[_Template, float, float], dict[str, object], Iterator]:
+        """The marker, its template and centre, facts, and the frames from the acquisition on."""
+        step = self.params.acquire_step_s - 1e-9
+        back: list = []  # frames since the last search
+        t_last: float | None = None
+        while True:
+            fr = self._next()
+            if fr is None:
+                self._raise_not_found()
+            if t_last is not None and fr.t - t_last < step:  # type: ignore[attr-defined]
+                back.append(fr)
+                continue
+            t_last = fr.t  # type: ignore[attr-defined]
+            found = self.usable(fr)
+            window = [fr]
+            chosen: tuple | None = None
+            if found:
+                while (self.pending or not self.ended) and window[-1].t - fr.t < self.params.acquire_window_s:
+                    nxt = self._next()
+                    if nxt is not None:
+                        window.append(nxt)
+                if not self.pending and not self.ended:  # is there a frame after the window?
+                    nxt = self._next()
+                    if nxt is not None:
+                        self.pending.append(nxt)
+                chosen, method = self._choose(fr, found, window)
+            if chosen is None:
+                self.skipped.extend(back)
+                self.skipped.append(fr)
+                back = []
+                self.pending = window[1:] + self.pending
+                continue
+            det, tpl = chosen
+            k = len(back)
+            for j in range(len(back) - 1, -1, -1):  # refine back: the marker in the frames before this search
+                earlier = self._same(det, back[j])
+                if earlier is None:
+                    break
+                (det, tpl), k = earlier, j
+            self.skipped.extend(back[:k])
+            a = back[k] if k < len(back) else fr
+            self.sampler.colour = det.colour
+            info = {"frame": int(a.index), "t": float(a.t), "row": len(self.skipped), "method": method,
+                    "candidates": len(found), "frames_searched": self.n_searched}
+            self._cache.clear()
+            return det, tpl, info, chain(back[k:], window, self.pending, self.frames)
+
+    def _same(self, det: Detection, fr: object) -> tuple[Detection, tuple[_Template, float, float]] | None:
+        """The candidate of ``fr`` that is ``det`` seen in a neighbouring frame, whole and usable, or None."""
+        reach = LINK_REACH * float(np.hypot(self.sampler.height, self.sampler.width))
+        near = [c for c in self.candidates(fr)
+                if MIN_RADIUS_SHARE <= c.radius / det.radius <= 1 / MIN_RADIUS_SHARE
+                and np.hypot(c.x - det.x, c.y - det.y) <= reach]
+        if not near:
+            return None
+        c = min(near, key=lambda c: (c.x - det.x) ** 2 + (c.y - det.y) ** 2)
+        self.sampler.colour = c.colour
+        try:
+            return c, make_template(self.sampler, fr.y, fr.u, fr.v, c)  # type: ignore[attr-defined]
+        except TrackingError:
+            return None
+
+    def _choose(self, a: object, found: list, window: list) -> tuple[object | None, str]:
+        """The marker among the search frame's candidates, and how it was chosen (None: undecided)."""
+        if self.roi:
+            return found[0], "roi"
+        samples = []
+        t_s = a.t  # type: ignore[attr-defined]
+        for fr in window[1:]:
+            if fr.t - t_s >= self.params.acquire_step_s - 1e-9:
+                samples.append(self.candidates(fr))
+                t_s = fr.t
+        reach = LINK_REACH * float(np.hypot(self.sampler.height, self.sampler.width))
+        moving, still = [], []
+        for cand in found:
+            det = cand[0]
+            moved, radii = _follow(det, samples, reach)
+            if det.radius < MIN_RADIUS_SHARE * float(np.median([det.radius, *radii])):
+                continue  # partly hidden here
+            (moving if moved > max(MOVED_PX, 0.5 * det.radius) else still).append(cand)
+        if moving:
+            return max(moving, key=lambda c: c[0].radius), "motion"
+        if self.ended and not self.pending:  # no later frame to decide on
+            return max(still or found, key=lambda c: c[0].radius * c[0].radius * c[0].contrast), "largest"
+        return None, ""
+
+    def _raise_not_found(self) -> None:
+        n = len(self.skipped)
+        later = f" or any of the {n - 1} frames after it" if n > 1 else ""
+        if self.roi:
+            raise TrackingError(f"no marker stands out in the roi {self.roi} of the first frame{later} "
+                                f"(try another --roi or --start)")
+        raise TrackingError(f"no {self.colour.name} marker found in the first frame{later} "
+                            f"(try --marker-color, --roi or --start)")
+
+
+def _follow(det: Detection, samples: list[list[Detection]], reach: float) -> tuple[float, list[float]]:
+    """Follow a candidate through later searches: its largest distance from the start [px] and its radii."""
+    x, y = det.x, det.y
+    far = 0.0
+    radii = []
+    for cands in samples:
+        near = [c for c in cands if 1 / RADIUS_RATIO <= c.radius / det.radius <= RADIUS_RATIO]
+        if not near:
+            continue
+        c = min(near, key=lambda c: (c.x - x) ** 2 + (c.y - y) ** 2)
+        if np.hypot(c.x - x, c.y - y) > reach:
+            continue
+        x, y = c.x, c.y
+        radii.append(c.radius)
+        far = max(far, float(np.hypot(x - det.x, y - det.y)))
+    return far, radii
+
+
 def track_frames(frames: Iterable, *, sampler: RawSampler, params: TrackParams, roi: tuple[int, ...] = (),
                  on_progress: Callable[[int], None] | None = None, progress_every: int = 32) -> TrackResult:
     """Track the marker through ``frames``.
@@ -397,43 +642,50 @@ def track_frames(frames: Iterable, *, sampler: RawSampler, params: TrackParams, 
     Parameters
     ----------
     frames : iterable of YuvFrame
-        Frames in order (``index``, ``t``, planes ``y``, ``u``, ``v``).
+        Frames in order (``index``, ``t``, planes ``y``, ``u``, ``v``). Frames are kept
+        (not copied) from the acquisition's first search to the end of its motion window.
     sampler : RawSampler, WarpedRawSampler or CorrectedSampler
         Feature windows and coordinate system of the result; its colour finds the marker
-        in the first frame unless ``roi`` is given (then the colour learned from the ROI
-        replaces the sampler's).
+        unless ``roi`` is given (then the colour learned from the ROI replaces the sampler's).
     params : TrackParams
     roi : (x, y, w, h), optional
-        The marker's rectangle in the first (raw) frame [px]; its colour is learned from it.
+        The marker's rectangle [px of the raw frame] in the first frame where it stands
+        out in it; its colour is learned from it.
     on_progress : callable, optional
         Called with the number of frames just done (every ``progress_every`` frames).
 
     Returns
     -------
     TrackResult
+        One row per frame; the frames before the acquisition (see :class:`_Acquirer`)
+        have ``ok = False`` and NaN position and score.
 
     Raises
     ------
     TrackingError
-        No frames, or no marker in the first frame (message without the file name).
+        No frames, or no marker in any frame (message without the file name).
     """
-    idx: list[int] = []
-    ts: list[float] = []
-    xs: list[float] = []
-    ys: list[float] = []
-    scores: list[float] = []
-    oks: list[bool] = []
-    tracker: MarkerTracker | None = None
-    det: Detection | None = None
-    pending = 0
-    for fr in frames:
-        if tracker is None:
-            det = detect_first(fr.y, fr.u, fr.v, colour=sampler.colour, roi=roi)
-            if det.colour is not sampler.colour:
-                sampler.colour = det.colour
-            template, tx, ty = make_template(sampler, fr.y, fr.u, fr.v, det)
-            tracker = MarkerTracker(sampler, template, params)
-            tracker._hist.append((fr.index - 1, tx, ty))  # seed: the detection predicts frame 0
+    it = iter(frames)
+    first = next(it, None)
+    if first is None:
+        raise TrackingError("no frames to track")
+    acq = _Acquirer(chain([first], it), sampler=sampler, params=params, roi=roi)
+    det, (template, tx, ty), acquisition, rest = acq.run()
+    n0 = len(acq.skipped)
+    idx: list[int] = [fr.index for fr in acq.skipped]
+    ts: list[float] = [fr.t for fr in acq.skipped]
+    xs: list[float] = [np.nan] * n0
+    ys: list[float] = [np.nan] * n0
+    scores: list[float] = [np.nan] * n0
+    oks: list[bool] = [False] * n0
+    acq.skipped.clear()
+    pending = n0
+    tracker = MarkerTracker(sampler, template, params)
+    seeded = False
+    for fr in rest:
+        if not seeded:
+            tracker._hist.append((fr.index - 1, tx, ty))  # seed: the detection predicts its own frame
+            seeded = True
         x, y, s, ok = tracker.step(fr.index, fr.y, fr.u, fr.v)
         idx.append(fr.index)
         ts.append(fr.t)
@@ -447,11 +699,11 @@ def track_frames(frames: Iterable, *, sampler: RawSampler, params: TrackParams, 
             pending = 0
     if on_progress is not None and pending:
         on_progress(pending)
-    if tracker is None or det is None:
-        raise TrackingError("no frames to track")
+    drift = {"max_px": tracker.drift_max, "reanchors": tracker.reanchors, "limit_px": params.max_drift_px,
+             "alarm": tracker.reanchors > 0}
     return TrackResult(
         frame=np.asarray(idx, np.int64), t=np.asarray(ts, float), x=np.asarray(xs, float), y=np.asarray(ys, float),
         score=np.asarray(scores, float), ok=np.asarray(oks, bool), detection=det,
         template_size=int(tracker.template.image.shape[0]), radius=float(tracker.template.radius),
-        searches={"wide": tracker.n_wide, "whole_frame": tracker.n_whole},
+        searches={"wide": tracker.n_wide, "whole_frame": tracker.n_whole}, acquisition=acquisition, drift=drift,
     )

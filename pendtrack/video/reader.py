@@ -9,7 +9,9 @@ Pixel centres are at integer coordinates, x right, y down.
 
 Time ``t`` [s] is the frame's presentation timestamp (``pts * time_base``) minus the first
 frame's, so variable frame rates survive; a positive ``fps`` override gives ``index / fps``.
-Frames without a timestamp fall back to the container's average rate.
+Frames without a timestamp fall back to the container's average rate. ``t`` and ``index``
+stay those of the whole video when only a part of it is read (``start``, ``end``): the
+times a user reads in a player are the times of the artifacts.
 
 Every problem a user can cause (missing file, not a video, no frames, truncated file, a
 decoding error) raises :class:`pendtrack.errors.VideoError` naming the file.
@@ -32,6 +34,15 @@ from pendtrack.errors import VideoError
 log = logging.getLogger(__name__)
 
 _PLANAR_420 = ("yuv420p", "yuvj420p")
+TIME_TOLERANCE_S = 1e-6  # a frame within this of ``start`` or ``end`` is inside the range [s]
+
+
+def check_time_range(start: float, end: float) -> None:
+    """Raise ValueError unless ``0 <= start`` and (``end == 0`` or ``end > start``) [s]."""
+    if not (np.isfinite(start) and start >= 0):
+        raise ValueError(f"start must be a time >= 0 s, got {start!r}")
+    if not (np.isfinite(end) and (end == 0 or end > start)):
+        raise ValueError(f"end must be 0 (the last frame) or a time after start ({start:g} s), got {end!r}")
 
 
 @dataclass(frozen=True)
@@ -172,6 +183,11 @@ class VideoReader:
         If > 0, decode in a background thread up to this many frames ahead of the
         consumer, so decoding overlaps the consumer's work on another core (FFmpeg
         releases the GIL while decoding). Frames and errors arrive in the same order.
+    start, end : float
+        Yield only the frames with ``start <= t <= end`` [s] (``t`` as above, 0 at the
+        video's first frame); ``end = 0`` reads to the last frame. Earlier frames are
+        decoded (their timestamps and indices count) but not handed over; decoding stops
+        after ``end``.
 
     Raises
     ------
@@ -181,11 +197,15 @@ class VideoReader:
         declares, i.e. a truncated file).
     """
 
-    def __init__(self, path: str | Path, *, fps: float = 0.0, threads: bool = False, prefetch: int = 0) -> None:
+    def __init__(self, path: str | Path, *, fps: float = 0.0, threads: bool = False, prefetch: int = 0,
+                 start: float = 0.0, end: float = 0.0) -> None:
         self.path = Path(path)
         if fps < 0:
             raise ValueError("fps must be >= 0")
+        check_time_range(start, end)
         self._fps = fps
+        self._start = float(start)
+        self._end = float(end)
         self._prefetch = int(prefetch)
         self._container = _open(self.path)
         self._stream = self._container.streams.video[0]
@@ -223,7 +243,10 @@ class VideoReader:
         fps_override = self._fps
         avg_rate = self.info.fps
         t_first: float | None = None
+        t = 0.0
         index = 0
+        n_yielded = 0
+        start, end = self._start - TIME_TOLERANCE_S, self._end + TIME_TOLERANCE_S
         decoder = self._container.decode(stream)
         while True:
             try:
@@ -245,11 +268,20 @@ class VideoReader:
                 if t_first is None:
                     t_first = pts_time
                 t = pts_time - t_first
-            y, u, v, frame = frame_planes(frame)
+            if self._end > 0 and t > end and n_yielded:
+                return  # past ``end``: the rest of the file is not read
             self.n_decoded = index + 1
-            yield YuvFrame(index, t, y, u, v, frame)
             index += 1
+            if t < start or (self._end > 0 and t > end):
+                continue
+            y, u, v, frame = frame_planes(frame)
+            n_yielded += 1
+            yield YuvFrame(index - 1, t, y, u, v, frame)
         self._check_complete(index)
+        if n_yielded == 0:
+            until = f"end {self._end:g} s" if self._end > 0 else "the end"
+            raise VideoError(f"no frames from start {self._start:g} s to {until}: the last frame is at {t:g} s "
+                             f"(--start and --end are times from the first frame [s])", path=self.path)
 
     def _check_complete(self, n: int) -> None:
         if n == 0:

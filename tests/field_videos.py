@@ -1,0 +1,92 @@
+"""Rendered pendulum videos with field conditions painted over them (for the tracking tests).
+
+The renderer (:mod:`pendtrack.render`, used as a library) films the pendulum; each frame is
+then post-processed in BGR before it is encoded with :class:`pendtrack.video.writer.VideoWriter`:
+
+* ``hand_s``: a skin-coloured hand covers the pink spot for the first seconds, then is gone;
+* ``poster``: a static pink disc (the spot's colour, larger) in a corner;
+* ``sticker``: a small blue sticker on the spot, off its centre, turning with the pendulum;
+* ``bead``: a small pink bead on the bar, nearer the axle than the spot (it swings too).
+
+Deterministic (seeded); 640x360 by default so a few seconds render in about a second.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pendtrack.config import Config
+from pendtrack.render.pipeline import make_renderer, plan_render
+from pendtrack.render.scene import SPOT_BGR
+from pendtrack.video.writer import VideoWriter
+
+SKIN_BGR = (140.0, 172.0, 224.0)
+BLUE_BGR = (220.0, 60.0, 30.0)
+
+
+@dataclass(frozen=True)
+class FieldVideo:
+    """A rendered video and its truth.
+
+    Attributes
+    ----------
+    path : Path
+    t, theta : ndarray
+        Frame times [s] and true angles [rad] (mid-exposure), one per frame.
+    spot : ndarray, shape (n, 2)
+        Raw pixel position of the spot's centre per frame.
+    visible : ndarray, bool
+        The spot is not hidden (by the hand).
+    radius_px : float
+        The spot's radius in the image near the axle's vertical [px].
+    """
+
+    path: Path
+    t: np.ndarray
+    theta: np.ndarray
+    spot: np.ndarray
+    visible: np.ndarray
+    radius_px: float
+
+
+def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, width: int = 640, height: int = 360,
+                theta0: float = 1.2, hand_s: float = 0.0, poster: bool = False, sticker: bool = False,
+                bead: bool = False, seed: int = 0) -> FieldVideo:
+    """Render, post-process and encode; see the module docstring for the conditions."""
+    cfg = Config().replace("render", width=width, height=height, fps=fps, seconds=seconds, theta0=theta0,
+                           seed=seed).render
+    plan = plan_render(cfg)
+    renderer = make_renderer(plan)
+    scene = plan.scene
+    motion = plan.motion
+    sx, sy = scene.spot_centre_px(motion.theta)
+    ex, ey = scene.project(*scene.to_world(scene.spot_distance_m + scene.spot_radius_m, 0.0, 0.0))
+    cx0, cy0 = scene.spot_centre_px(0.0)
+    radius = float(np.hypot(ex - cx0, ey - cy0))
+    visible = motion.t >= hand_s
+    light = np.array(SPOT_BGR) * 255.0 * 0.8
+    with VideoWriter(path, width=width, height=height, fps=fps, crf=20) as writer:
+        for k in range(motion.n_frames):
+            img = renderer.render(motion.frame_thetas(k))
+            th = float(motion.theta[k])
+            if poster:
+                cv2.circle(img, (int(0.8 * width), int(0.2 * height)), int(round(1.4 * radius)),
+                           tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA)
+            if bead:
+                bx, by = scene.project(*scene.to_world(0.55 * scene.spot_distance_m, 0.0, th))
+                cv2.circle(img, (int(round(4 * bx)), int(round(4 * by))), int(round(4 * 0.45 * radius)),
+                           tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA, shift=2)
+            if sticker:
+                qx, qy = scene.project(*scene.to_world(scene.spot_distance_m + 0.3 * scene.spot_radius_m, 0.0, th))
+                cv2.circle(img, (int(round(4 * qx)), int(round(4 * qy))), int(round(4 * 0.35 * radius)),
+                           BLUE_BGR, -1, lineType=cv2.LINE_AA, shift=2)
+            if not visible[k]:
+                centre = (int(round(sx[k])), int(round(sy[k] + 0.8 * radius)))
+                cv2.ellipse(img, centre, (int(2.6 * radius), int(3.4 * radius)), np.degrees(-th), 0, 360,
+                            SKIN_BGR, -1, lineType=cv2.LINE_AA)
+            writer.write(img)
+    return FieldVideo(Path(path), motion.t.copy(), motion.theta.copy(), np.column_stack([sx, sy]), visible, radius)
