@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from pendtrack.config import KinematicsConfig
 from pendtrack.errors import FitError
 from pendtrack.kinematics.analysis import (
     Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
@@ -76,8 +77,10 @@ def omega0_from_kinematics(kin: KinematicsResult, *, correct_smoothing: bool = T
     return estimate_omega0(tp.theta, tp.alpha, sg_moments=_moments(kin) if correct_smoothing else None)
 
 
-def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *, window_s: float = 25 / 120, order: int = 3,
-                               max_gap_s: float = 0.05, min_segment_s: float = 1.0) -> Omega0Estimate:
+def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *,
+                               window_s: float = KinematicsConfig.savgol_window_s,
+                               order: int = KinematicsConfig.savgol_order, max_gap_s: float = KinematicsConfig.max_gap_s,
+                               min_segment_s: float = KinematicsConfig.min_segment_s) -> Omega0Estimate:
     """Omega0 [rad/s] straight from theta(t): Savitzky-Golay, turning points, eq. straightline.
 
     Convenience for initial estimates of a fit; same parameters as :func:`savgol_kinematics`.
