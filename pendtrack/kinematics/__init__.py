@@ -17,12 +17,13 @@ from pendtrack.kinematics.differentiate import (
     KinematicsError, KinematicsResult, savgol_kinematics, savgol_uniform, window_points,
 )
 from pendtrack.kinematics.initial import (
-    InitialAnalysis, analyse, estimate_omega0_from_angle, omega0_from_kinematics,
+    InitialAnalysis, analyse, estimate_omega0_from_angle, omega0_from_kinematics, record_turning_points,
+    smoothing_moments,
 )
 
 __all__ = [
     "Omega0Estimate", "TurningPoints", "amplitudes", "delta_alpha", "estimate_omega0", "negative_damping",
     "negative_damping_flags", "negative_damping_fraction", "phase", "phase_speed", "turning_points",
     "KinematicsError", "KinematicsResult", "savgol_kinematics", "savgol_uniform", "window_points", "InitialAnalysis", "analyse",
-    "omega0_from_kinematics", "estimate_omega0_from_angle",
+    "omega0_from_kinematics", "estimate_omega0_from_angle", "record_turning_points", "smoothing_moments",
 ]

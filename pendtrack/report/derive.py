@@ -195,17 +195,20 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     from pendtrack import kinematics
 
     t, th, om, al = (kin[c].to_numpy(float) for c in ("t", "theta", "omega", "alpha"))
-    seg = kin["segment"].to_numpy() if "segment" in kin.columns else None
+    seg = kin["segment"].to_numpy() if "segment" in kin.columns else np.zeros(t.size, dtype=np.int64)
     extra = extra or {}
-    w = extra.get("window_s")
-    edge = 0.5 * float(w) if _number(w) is not None else 0.5 * window_s
-    tp = kinematics.turning_points(t, th, om, al, kin["ok"].to_numpy(bool), seg, edge_s=edge)
-    raw = kinematics.estimate_omega0(tp.theta, tp.alpha)
+    w = _number(extra.get("window_s"))
+    info: dict[str, Any] = {"window_s": window_s if w is None else w, "order": extra.get("order", order)}
     points, h = _number(extra.get("window_points")), _number(extra.get("h"))
-    est, corrected = raw, False
     if points is not None and h is not None:
-        moments = kinematics.analysis.savgol_bias_moments(int(points), int(extra.get("order", order)), h)
-        est, corrected = kinematics.estimate_omega0(tp.theta, tp.alpha, sg_moments=moments), True
+        info.update(window_points=points, h=h)
+    record = kinematics.KinematicsResult(t=t, theta=th, omega=om, alpha=al, ok=kin["ok"].to_numpy(bool), segment=seg,
+                                         info=info)
+    tp = kinematics.record_turning_points(record)
+    raw = kinematics.estimate_omega0(tp.theta, tp.alpha)
+    moments = kinematics.smoothing_moments(info)
+    est = raw if moments is None else kinematics.estimate_omega0(tp.theta, tp.alpha, sg_moments=moments)
+    corrected = moments is not None
     return TurningPoints(theta_ext=np.asarray(tp.theta, float), alpha_ext=np.asarray(tp.alpha, float),
                          omega0=float(est.omega0), omega0_stderr=_number(est.stderr), omega0_raw=float(raw.omega0),
                          corrected=corrected)
