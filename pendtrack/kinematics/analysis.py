@@ -1,6 +1,7 @@
 """The paper's model-free initial analysis, as pure functions on kinematic series.
 
-* turning points: omega = 0 crossings, linearly interpolated (:func:`turning_points`);
+* turning points: omega = 0 crossings, linearly interpolated, optionally with a hysteresis
+  band against noise, and the direction of each (:func:`turning_points`);
 * ``alpha(omega = 0) ~ -Omega0^2 sin(theta_ext)`` (eq. straightline) fitted through the
   origin -> model-free Omega0 with its standard error (:func:`estimate_omega0`);
 * ``Delta alpha = alpha + Omega0^2 sin(theta)`` (eq. lobulosprovados);
@@ -8,7 +9,11 @@
   ``A_omega = omega/(2 Omega0)`` (eqs. amplitudes, amplitudesobservable);
 * phase ``phi`` with ``tan(phi) = A_theta/A_omega`` (eq. phasephi) and phase speed
   ``d phi/dt`` (eq. phasespeed);
-* negative damping ``Delta alpha * omega > 0`` (eq. negativedampingdefinition).
+* negative damping ``Delta alpha * omega > 0`` (eq. negativedampingdefinition) per sample
+  (:func:`negative_damping`, :func:`negative_damping_flags`) and as a fraction of chosen
+  samples (:func:`negative_damping_fraction`).
+
+These are the package's only implementations of these facts; discovery and report use them.
 
 Caveat: Delta alpha is a small difference of large numbers. The dissipative accelerations
 are ~0.01-0.1 rad/s^2, while a 0.1 % error in Omega0 or the 1-2 % bias of the paper's
