@@ -2,14 +2,17 @@
 
 The defaults below are the single source of truth; ``configs/default.toml`` documents
 them with comments and a test checks that the two agree. A TOML file only needs the keys
-it changes. Unknown sections or keys, and values of the wrong type, are errors that name
-the file and the key.
+it changes. Unknown sections or keys, values of the wrong type and values out of their range
+(:data:`CHECKS`) are errors that name the file and the key, raised when the file is loaded,
+before any stage runs.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, get_type_hints
@@ -17,6 +20,14 @@ from typing import Any, get_type_hints
 from pendtrack.errors import ConfigError
 
 PAPER_FPS = 120.0
+SAVGOL_WINDOW_S = 25 / PAPER_FPS  # the paper's Savitzky-Golay window: 25 frames at 120 fps [s]
+MEMORY_S = 100 / PAPER_FPS  # the paper's Grünwald–Letnikov memory: 100 frames at 120 fps [s]
+# the file suffixes read as videos (batch's default extensions, discovery's inputs, run codes), any case
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg", ".mpeg", ".wmv")
+# radial projections of pendtrack.lens.fisheye (a lens's input; "none" and "rectilinear" do not bend rays)
+LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
+FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
+TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,7 +72,7 @@ class AngleConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class KinematicsConfig:
-    savgol_window_s: float = 25 / PAPER_FPS  # paper: 25 frames at 120 fps [s]
+    savgol_window_s: float = SAVGOL_WINDOW_S  # paper: 25 frames at 120 fps [s]
     savgol_order: int = 3  # cubic, as in the paper
     max_gap_s: float = 0.05  # gaps of not-ok samples up to this length are bridged [s]
     min_segment_s: float = 1.0  # shorter segments between long gaps are dropped [s]
@@ -69,7 +80,7 @@ class KinematicsConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class ModelsConfig:
-    memory_s: float = 100 / PAPER_FPS  # Grünwald–Letnikov memory: paper's 100 frames at 120 fps [s]
+    memory_s: float = MEMORY_S  # Grünwald–Letnikov memory: paper's 100 frames at 120 fps [s]
     full_history: bool = False  # True: the GL sum runs over the whole record
 
 
@@ -139,7 +150,7 @@ class BatchConfig:
     workers: int = 0  # local worker processes; 0 = all cores (ignored with a Dask scheduler)
     threads_per_worker: int = 1  # BLAS/OpenMP/numba/OpenCV threads inside each worker
     inner_workers: int = 1  # [fit] and [discover] workers inside a batch run: 1 = no nested pools
-    extensions: tuple[str, ...] = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts")  # video files, any case
+    extensions: tuple[str, ...] = VIDEO_SUFFIXES  # video files, any case
     recursive: bool = False  # also look for videos in sub-folders of FOLDER
     omega0_models: tuple[str, ...] = ("fractional", "classic", "opa")  # Omega0 for the two-cuboid fit: first fitted
     report: bool = True  # write DIR/report.html (pendtrack.stages.report) at the end
@@ -200,6 +211,105 @@ class Config:
         return dataclasses.replace(self, **{section: new_section})
 
 
+Check = tuple[Callable[[Any], bool], str]  # (value is valid, what a valid value is)
+
+
+def _gt(lo: float) -> Check:
+    return (lambda v: v > lo), f"must be > {lo:g}"
+
+
+def _ge(lo: float) -> Check:
+    return (lambda v: v >= lo), f"must be >= {lo:g}"
+
+
+def _within(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> Check:
+    def ok(v: float) -> bool:
+        return (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+    return ok, f"must be within {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
+def _one_of(choices: tuple[str, ...]) -> Check:
+    return (lambda v: v in choices), f"must be one of {', '.join(choices)}"
+
+
+def _each(check: Check, what: str) -> Check:
+    return (lambda v: all(check[0](x) for x in v)), f"must hold {what}"
+
+
+def _sizes(*sizes: int, what: str) -> Check:
+    return (lambda v: len(v) in sizes), f"must be {what}"
+
+
+_NAME: Check = (lambda v: bool(v.strip())), "must not be empty"
+_NAMES: Check = _each(_NAME, "non-empty names")
+
+# Ranges and choices of the values, checked when a config is loaded (before any stage runs).
+# Floats must also be finite. Names of models and effects are checked by their registries,
+# the marker colour by pendtrack.track.colour, the Dask address by pendtrack.batch.executor,
+# and [render] by pendtrack.render.pipeline.check_render_config (with its cross-key rules).
+CHECKS: dict[str, tuple[Check, ...]] = {
+    "lens.projection": (_one_of(LENS_PROJECTIONS),),
+    "lens.fov_deg": (_within(0, 360, lo_open=True, hi_open=True),),
+    "lens.fixed_pixels": (_within(0, 1, lo_open=True),),
+    "video.fps": (_ge(0),),
+    "track.roi": (_sizes(0, 4, what="[] or [x, y, w, h]"), _each(_ge(0), "pixels >= 0")),
+    "track.search_margin_px": (_gt(0),),
+    "track.min_score": (_within(0, 1),),
+    "track.evolution_rate": (_within(0, 1),),
+    "track.quick_margin_px": (_gt(0),),
+    "track.refine": (_one_of(TRACK_REFINE),),
+    "track.max_coast_frames": (_ge(0),),
+    "track.min_contrast_ratio": (_within(0, 1, lo_open=True),),
+    "angle.axle": (_sizes(0, 2, what="[] or [x, y]"),),
+    "angle.rest_seconds": (_gt(0),),
+    "angle.rest_omega_max": (_gt(0),),
+    "kinematics.savgol_window_s": (_gt(0),),
+    "kinematics.savgol_order": (_ge(1),),
+    "kinematics.max_gap_s": (_ge(0),),
+    "kinematics.min_segment_s": (_ge(0),),
+    "models.memory_s": (_gt(0),),
+    "fit.models": (_NAMES,),
+    "fit.cost": (_one_of(FIT_COSTS),),
+    "fit.n_starts": (_ge(1),),
+    "fit.accept_ratio": (_ge(1),),
+    "fit.start_spread": (_ge(0),),
+    "fit.omega0_spread": (_ge(0),),
+    "fit.seed": (_ge(0),),
+    "fit.bootstrap": (_ge(0),),
+    "fit.start_budget": (_ge(1),),
+    "fit.workers": (_ge(0),),
+    "batch.scheduler": (_NAME,),
+    "batch.workers": (_ge(0),),
+    "batch.threads_per_worker": (_ge(1),),
+    "batch.inner_workers": (_ge(0),),
+    "batch.extensions": (_each(((lambda v: len(v) > 1 and v.startswith(".")), ""), "suffixes with the dot (.mp4)"),),
+    "batch.omega0_models": (_NAMES,),
+    "discover.baseline": (_NAME,),
+    "discover.effects": (_NAMES,),
+    "discover.train_fraction": (_within(0, 1, lo_open=True, hi_open=True),),
+    "discover.heldout_z_min": (_ge(0),),
+    "discover.heldout_min_gain": (_ge(0),),
+    "discover.max_effects": (_ge(0),),
+    "discover.n_starts_baseline": (_ge(1),),
+    "discover.n_starts": (_ge(0),),
+    "discover.workers": (_ge(0),),
+    "discover.analysis_rate_hz": (_ge(0),),
+    "discover.n_replicas": (_ge(0),),
+    "discover.near_turning_fraction": (_within(0, 1, lo_open=True),),
+    "discover.seed": (_ge(0),),
+}
+
+
+def _check_value(value: Any, raw: Any, source: str, key: str) -> None:
+    """Raise :class:`ConfigError` naming ``key`` when ``value`` breaks a rule of :data:`CHECKS`."""
+    items = value if isinstance(value, tuple) else (value,)
+    if any(isinstance(x, float) and not math.isfinite(x) for x in items):
+        raise ConfigError(f"'{key}' must be finite, got {raw!r}", path=source)
+    for ok, text in CHECKS.get(key, ()):
+        if not ok(value):
+            raise ConfigError(f"'{key}' {text}, got {raw!r}", path=source)
+
+
 def _coerce_value(value: Any, hint: Any, source: str, key: str) -> Any:
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -233,6 +343,8 @@ def _coerce_section(cls: type, values: dict[str, Any], source: str, section: str
         if key not in known:
             raise ConfigError(f"unknown key '{section}.{key}'", path=source)
     coerced = {k: _coerce_value(v, hints[k], source, f"{section}.{k}") for k, v in values.items()}
+    for k, v in coerced.items():
+        _check_value(v, values[k], source, f"{section}.{k}")
     return cls(**coerced)
 
 

@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 from click.testing import CliRunner
 
@@ -58,3 +59,15 @@ def test_bad_config_file_is_one_line_error_naming_the_file(tmp_path):
 def test_console_script_entry_point_runs():
     out = subprocess.run([sys.executable, "-m", "pendtrack", "--version"], capture_output=True, text=True)
     assert out.returncode == 0 and __version__ in out.stdout
+
+
+def test_run_with_a_bad_config_value_fails_before_any_stage(tmp_path):
+    # a real video: without the load-time check, `run` would track it whole before the kinematics stage failed
+    video = Path(__file__).resolve().parents[1] / "sample_videos" / "12na1.mp4"
+    bad = tmp_path / "x.toml"
+    bad.write_text("[kinematics]\nsavgol_window_s = -1\n")
+    out = tmp_path / "out"
+    res = invoke("run", str(video), "--config", str(bad), "--out", str(out), "-q")
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [f"error: {bad}: 'kinematics.savgol_window_s' must be > 0, got -1"]
+    assert not out.exists() or not any(out.iterdir())  # no artifact, not even a partial one

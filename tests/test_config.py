@@ -65,3 +65,50 @@ def test_replace_overrides_one_section_and_validates():
     assert cfg.fit.n_starts == 7 and Config().fit.n_starts == 150
     with pytest.raises(ConfigError):
         Config().replace("fit", n_starts="x")
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("[kinematics]\nsavgol_window_s = -1\n", "'kinematics.savgol_window_s' must be > 0, got -1"),
+        ("[kinematics]\nsavgol_order = 0\n", "'kinematics.savgol_order' must be >= 1, got 0"),
+        ("[kinematics]\nmax_gap_s = nan\n", "'kinematics.max_gap_s' must be finite, got nan"),
+        ("[lens]\nprojection = 'fish'\n", "'lens.projection' must be one of equisolid, equidistant"),
+        ("[lens]\nfixed_pixels = 1.5\n", "'lens.fixed_pixels' must be within (0, 1], got 1.5"),
+        ("[video]\nfps = -30\n", "'video.fps' must be >= 0, got -30"),
+        ("[track]\nroi = [1, 2, 3]\n", "'track.roi' must be [] or [x, y, w, h], got [1, 2, 3]"),
+        ("[track]\nrefine = 'cubic'\n", "'track.refine' must be one of quadratic, centroid"),
+        ("[angle]\nrest_seconds = 0\n", "'angle.rest_seconds' must be > 0, got 0"),
+        ("[models]\nmemory_s = 0.0\n", "'models.memory_s' must be > 0, got 0.0"),
+        ("[fit]\ncost = 'l1'\n", "'fit.cost' must be one of xi2, theta, got 'l1'"),
+        ("[fit]\nn_starts = 0\n", "'fit.n_starts' must be >= 1, got 0"),
+        ("[fit]\naccept_ratio = 0.9\n", "'fit.accept_ratio' must be >= 1, got 0.9"),
+        ("[fit]\nmodels = ['classic', '']\n", "'fit.models' must hold non-empty names"),
+        ("[batch]\nextensions = ['mp4']\n", "'batch.extensions' must hold suffixes with the dot"),
+        ("[batch]\nthreads_per_worker = 0\n", "'batch.threads_per_worker' must be >= 1, got 0"),
+        ("[discover]\ntrain_fraction = 1.0\n", "'discover.train_fraction' must be within (0, 1), got 1.0"),
+        ("[discover]\nseed = -1\n", "'discover.seed' must be >= 0, got -1"),
+    ],
+)
+def test_bad_config_value_names_file_key_and_range(tmp_path, text, fragment):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_config(p)
+    assert str(err.value).startswith(f"{p}: ") and fragment in str(err.value)
+    assert "\n" not in str(err.value)  # one line
+
+
+def test_flags_are_checked_like_the_file():
+    with pytest.raises(ConfigError, match="'kinematics.savgol_window_s' must be > 0, got -0.5"):
+        Config().replace("kinematics", savgol_window_s=-0.5)
+
+
+def test_one_list_of_video_suffixes():
+    from pendtrack.batch import runcode
+    from pendtrack.config import VIDEO_SUFFIXES
+    from pendtrack.discovery import inputs
+
+    assert Config().batch.extensions == VIDEO_SUFFIXES
+    assert inputs.is_video("a.WEBM") and inputs.is_video("b.mts")
+    assert runcode.parse_run_code("06na5.wmv").run_id == runcode.parse_run_code("06na5").run_id

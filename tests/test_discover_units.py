@@ -9,12 +9,13 @@ import pandas as pd
 import pytest
 
 from pendtrack.discovery import catalogue as C
-from pendtrack.discovery.cycles import cycle_bounds, cycle_fit, turning_points
-from pendtrack.discovery.hysteresis import delta_alpha, loop_areas
+from pendtrack.discovery.cycles import cycle_bounds, cycle_fit
+from pendtrack.discovery.hysteresis import loop_areas
 from pendtrack.discovery.inputs import read_angle_series
 from pendtrack.discovery.residuals import effective_n, noise_sigma, order_spectrum, runs_test, whiteness
 from pendtrack.discovery.selection import heldout_test
 from pendtrack.errors import ArtifactError, ConfigError
+from pendtrack.kinematics import delta_alpha, turning_points
 
 H = 1 / 60
 W0 = 2 * math.pi  # 1 Hz oscillation
@@ -139,8 +140,8 @@ def test_cycle_fit_recovers_a_timing_and_an_amplitude_error():
     rng = np.random.default_rng(5)
     delta, eps = 2e-3, 0.01  # the model lags by 2 ms and is 1 % too small
     data = (1 + eps) * np.interp(t + delta, t, th) + rng.normal(0, 0.002, t.size)
-    tp = turning_points(t, om, threshold=0.05)
-    bounds = cycle_bounds(tp[1], tp[2])
+    tp = turning_points(t, th, om, threshold=0.05)
+    bounds = cycle_bounds(tp.index, tp.direction)
     assert len(bounds) >= 55
     cyc = cycle_fit(t, data - th, th, om, bounds, sigma=0.002)
     # stderr of delta per cycle is ~0.1 ms, of eps ~0.002 -> means over 55 cycles are tight
@@ -154,7 +155,8 @@ def test_cycle_fit_recovers_a_timing_and_an_amplitude_error():
 def test_turning_points_survive_noise():
     t, th, om = _oscillation(20.0)
     rng = np.random.default_rng(6)
-    times, _, dirs = turning_points(t, om + rng.normal(0, 0.05, t.size), threshold=0.3)
+    tp = turning_points(t, th, om + rng.normal(0, 0.05, t.size), threshold=0.3)
+    times, dirs = tp.t, tp.direction
     assert times.size == 40 and np.all(np.abs(np.diff(dirs)) == 2)  # alternate, 2 per period
 
 
@@ -162,8 +164,8 @@ def test_turning_points_survive_noise():
 
 def test_loop_area_zero_for_velocity_dissipation_nonzero_for_added_mass():
     t, th, om = _oscillation(10.0)
-    tp = turning_points(t, om, threshold=0.05)
-    bounds = cycle_bounds(tp[1], tp[2])
+    tp = turning_points(t, th, om, threshold=0.05)
+    bounds = cycle_bounds(tp.index, tp.direction)
     single_valued = -0.02 * om - 0.01 * om * np.abs(om)
     assert np.max(np.abs(loop_areas(om, single_valued, bounds))) < 1e-3
     added = 0.02 * om ** 2 * np.sin(th)

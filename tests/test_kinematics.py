@@ -144,6 +144,53 @@ def test_omega0_from_exact_turning_points_and_outliers() -> None:
         estimate_omega0(th, -al)
 
 
+def test_omega0_outliers_are_judged_from_the_median_residual() -> None:
+    # issue #15 item 3: residuals that share an offset (alpha biased by a constant, as when theta's
+    # zero is off the rest position) are not outliers; comparing |r| with the MAD dropped 13 of 14
+    rng = np.random.default_rng(3)
+    th = np.tile([0.4, -0.38], 7) * np.linspace(1.0, 0.8, 14)
+    al = -5.05 ** 2 * np.sin(th) + 0.3 + rng.normal(0, 0.01, 14)
+    est = estimate_omega0(th, al)
+    assert est.n_points == 14 and est.n_rejected == 0
+    # the offset is a residual of the through-origin fit: Omega0 within 4 standard errors
+    assert abs(est.omega0 - 5.05) < 4 * est.stderr
+    al[5] += 20.0  # a wild point on top of the offset is still rejected
+    assert estimate_omega0(th, al).n_rejected == 1
+
+
+@pytest.mark.parametrize("seconds, n_turning", [(3.6, 5), (2.2, 3)])
+def test_omega0_and_analysis_on_a_short_record(seconds: float, n_turning: int) -> None:
+    t = np.arange(0, seconds, 1 / FPS)
+    sim = simulate("standard", STANDARD, t, theta0=1.0, omega0=0.0)
+    noisy = sim.theta + np.random.default_rng(1).normal(0, 1e-3, t.size)
+    ana = analyse(savgol_kinematics(t, noisy))
+    assert len(ana.turning) == n_turning and ana.reason == ""
+    # few points, each alpha_ext with ~0.5 % noise: 1 % is ample
+    assert ana.omega0 is not None and abs(ana.omega0.omega0 - 5.05) < 0.01 * 5.05
+    assert ana.omega0.n_points == n_turning
+
+
+def test_too_few_turning_points_say_why() -> None:
+    t = np.arange(0, 1.9, 1 / FPS)
+    sim = simulate("standard", STANDARD, t, theta0=1.0, omega0=0.0)
+    ana = analyse(savgol_kinematics(t, sim.theta))
+    assert ana.omega0 is None and ana.columns == {}
+    assert "only 2 usable turning points" in ana.reason and "need at least 3" in ana.reason
+
+
+def test_turning_points_with_hysteresis_ignore_noise_crossings() -> None:
+    t = np.arange(0, 4, 0.01)
+    w = 2 * np.pi
+    omega = -0.3 * w * np.sin(w * t) + np.random.default_rng(4).normal(0, 0.2, t.size)
+    plain = turning_points(t, 0.3 * np.cos(w * t), omega)
+    tp = turning_points(t, 0.3 * np.cos(w * t), omega, threshold=1.0)  # 5 noise sd
+    assert len(plain) > 7 and len(tp) == 7  # noise makes extra zero crossings near omega = 0
+    np.testing.assert_array_equal(tp.direction, [1, -1, 1, -1, 1, -1, 1])  # minimum of theta at T/2
+    # a crossing lies within the band: |omega| slope there is 0.3 w^2 = 11.8 rad/s^2, band 1 rad/s -> 0.085 s
+    np.testing.assert_allclose(tp.t, np.arange(1, 8) * 0.5, atol=0.09)
+    assert np.isnan(tp.alpha).all()
+
+
 @pytest.mark.parametrize("theta0", [3.0, 0.5])
 def test_omega0_from_simulated_record(theta0: float) -> None:
     t = np.arange(0, 40, 1 / FPS)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import PendtrackError
 
 RUN_CODE_RE = re.compile(
@@ -103,17 +104,13 @@ def parse_run_code(name: str | Path) -> RunCode:
     RunCodeError
         The stem does not start with a run code followed by nothing or by a separator.
     """
-    stem = Path(name).stem if Path(name).suffix.lower() in _VIDEO_SUFFIX_GUESS else Path(name).name
+    stem = Path(name).stem if Path(name).suffix.lower() in VIDEO_SUFFIXES else Path(name).name
     m = RUN_CODE_RE.fullmatch(stem)
     if m is None:
         raise RunCodeError(f"name '{stem}' is not a run code ({RUN_CODE_HELP})")
     suffix = re.sub(r"[^a-z0-9_.\-]+", "-", (m["suffix"] or "").strip().lower()).strip("-.")
     return RunCode(tile_cm=int(m["tile"]), launched=m["launch"].lower() == "l", alley=m["alley"].lower() == "a",
                    trial=int(m["trial"]), suffix=suffix)
-
-
-# Extensions stripped by parse_run_code when given a file name rather than a stem.
-_VIDEO_SUFFIX_GUESS = frozenset({".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg", ".mpeg"})
 
 
 @dataclass(frozen=True)

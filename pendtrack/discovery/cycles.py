@@ -8,7 +8,8 @@ own angle and velocity, one oscillation at a time, splits it into those parts wi
 standard errors. A *persistent dephasing* is a ``delta`` series that the noise cannot explain
 (chi^2 per cycle >> 1); an envelope that decays at the wrong rate is an ``eps`` series that
 drifts. The period of every oscillation, measured between turning points of the data and of
-the model, gives the frequency-against-amplitude law of both.
+the model, gives the frequency-against-amplitude law of both. Turning points are
+:func:`pendtrack.kinematics.turning_points` with a hysteresis threshold.
 """
 
 from __future__ import annotations
@@ -18,57 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
-def turning_points(t: np.ndarray, omega: np.ndarray, *, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times where ``omega`` changes sign, robust to noise by hysteresis.
-
-    A sign change counts only once ``omega`` has gone beyond ``-threshold`` (resp.
-    ``+threshold``) since the previous one; its time is the last zero crossing before that,
-    linearly interpolated.
-
-    Parameters
-    ----------
-    t : ndarray
-        Times [s].
-    omega : ndarray
-        Angular velocity [rad/s].
-    threshold : float
-        Hysteresis [rad/s], a few times the noise of ``omega``.
-
-    Returns
-    -------
-    times : ndarray
-        Turning-point times [s].
-    index : ndarray of int
-        Sample index just before each crossing.
-    direction : ndarray of int
-        +1 where omega turns from negative to positive (a minimum of theta), -1 otherwise.
-    """
-    state = np.zeros(omega.size, dtype=np.int8)
-    state[omega > threshold] = 1
-    state[omega < -threshold] = -1
-    nz = np.flatnonzero(state)
-    if nz.size < 2:
-        return np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-    s = state[nz]
-    changes = np.flatnonzero(s[1:] != s[:-1])
-    times, idx, dirs = [], [], []
-    sign = np.signbit(omega)
-    for c in changes:
-        lo, hi = nz[c], nz[c + 1]  # omega is beyond +-threshold at lo and hi, in between it is small
-        seg = np.flatnonzero(sign[lo:hi] != sign[lo + 1 : hi + 1])
-        j = lo + (seg[-1] if seg.size else hi - lo - 1)
-        w0, w1 = omega[j], omega[j + 1]
-        f = w0 / (w0 - w1) if w0 != w1 else 0.5
-        times.append(t[j] + f * (t[j + 1] - t[j]))
-        idx.append(j)
-        dirs.append(int(s[c + 1]))
-    return np.asarray(times), np.asarray(idx, dtype=int), np.asarray(dirs, dtype=int)
-
-
-def extremes(t: np.ndarray, theta: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """The angle at the turning points (linear interpolation) [rad]."""
-    return np.interp(times, t, theta)
+from pendtrack.kinematics import TurningPoints
 
 
 @dataclass(frozen=True)
@@ -256,37 +207,32 @@ class FrequencyAmplitude:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
-def periods(times: np.ndarray, directions: np.ndarray, t: np.ndarray,
-            theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def periods(turns: TurningPoints) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start time, period [s] and amplitude [rad] of each full oscillation (minimum to minimum)."""
-    amp_at = np.abs(extremes(t, theta, times))
-    starts = np.flatnonzero(directions > 0)
+    amp_at = np.abs(turns.theta)
+    starts = np.flatnonzero(turns.direction > 0)
     t0, per, amp = [], [], []
     for a, b in zip(starts[:-1], starts[1:]):
-        t0.append(times[a])
-        per.append(times[b] - times[a])
+        t0.append(turns.t[a])
+        per.append(turns.t[b] - turns.t[a])
         amp.append(float(np.mean(amp_at[a : b + 1])))
     return np.asarray(t0), np.asarray(per), np.asarray(amp)
 
 
-def frequency_amplitude(data_turns: tuple[np.ndarray, np.ndarray], model_turns: tuple[np.ndarray, np.ndarray],
-                        t: np.ndarray, theta_data: np.ndarray, theta_model: np.ndarray,
+def frequency_amplitude(data_turns: TurningPoints, model_turns: TurningPoints,
                         cycles: CycleFit) -> FrequencyAmplitude:
     """Period against amplitude in data and model, and the model's frequency mismatch law.
 
     Parameters
     ----------
-    data_turns, model_turns : (times, directions)
-        Turning points of the data (from its smoothed omega) and of the model.
-    t : ndarray
-        Times [s].
-    theta_data, theta_model : ndarray
-        Smoothed data angle and model angle [rad].
+    data_turns, model_turns : TurningPoints
+        Turning points of the data (its smoothed angle and omega) and of the model
+        (:func:`pendtrack.kinematics.turning_points`).
     cycles : CycleFit
         Per-oscillation timing errors of the model (their drift is the period mismatch).
     """
-    td, pd_, ad = periods(data_turns[0], data_turns[1], t, theta_data)
-    tm, pm, _ = periods(model_turns[0], model_turns[1], t, theta_model)
+    td, pd_, ad = periods(data_turns)
+    tm, pm, _ = periods(model_turns)
     empty = np.zeros(0)
     amp = per_d = per_m = empty
     if td.size >= 1 and tm.size >= 2:

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendtrack.discovery.diagnostics import savgol_kinematics, savgol_window_samples
 from pendtrack.discovery.inputs import AngleSeries
 from pendtrack.errors import FitError
+from pendtrack.kinematics import savgol_uniform, window_points
 
 UNIFORM_RTOL = 1e-6  # spacing spread below which a record counts as uniform (as pendtrack.models)
 
@@ -118,8 +118,8 @@ def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: flo
     t = t[::k]
     theta = np.asarray(theta[::k], dtype=float)
     h = float((t[-1] - t[0]) / (t.size - 1))
-    win = savgol_window_samples(savgol_window_s, h, savgol_order)
-    _, omega, alpha = savgol_kinematics(theta, h, win, savgol_order)
+    win = window_points(savgol_window_s, h, savgol_order)
+    _, omega, alpha = savgol_uniform(theta, h=h, window=win, order=savgol_order)
     t_split = float(t[0] + train_fraction * (t[-1] - t[0]))
     if np.count_nonzero(t > t_split) < 50 or np.count_nonzero(t <= t_split) < 100:
         raise FitError(f"record too short for a training part and a held-out part ({t.size} samples)",

@@ -17,35 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from pendtrack.discovery.cycles import (
-    CycleFit, FrequencyAmplitude, cycle_bounds, cycle_fit, frequency_amplitude, trend, turning_points,
-)
+from pendtrack.discovery.cycles import CycleFit, FrequencyAmplitude, cycle_bounds, cycle_fit, frequency_amplitude, trend
 from pendtrack.discovery.hysteresis import Hysteresis, hysteresis
 from pendtrack.discovery.residuals import OrderSpectrum, Whiteness, noise_sigma, order_spectrum, welch_psd, whiteness
+from pendtrack.kinematics import savgol_uniform, turning_points, window_points
 
 EVIDENCE_KEYS = ("excess_rms", "whiteness", "dephasing", "harmonic_line", "envelope", "early_envelope",
                  "frequency_amplitude", "hysteresis", "negative_damping", "offset")
-
-
-def savgol_window_samples(window_s: float, dt: float, order: int) -> int:
-    """Odd Savitzky-Golay window [samples] closest to ``window_s`` [s], at least ``order + 2``.
-
-    The kinematics stage's rule (:func:`pendtrack.kinematics.window_points`), so data and
-    model are filtered exactly as ``kinematics.parquet`` would be.
-    """
-    from pendtrack.kinematics import window_points
-
-    return int(window_points(window_s, dt, order))
-
-
-def savgol_kinematics(theta: np.ndarray, dt: float, window: int,
-                      order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Smoothed angle [rad], angular velocity [rad/s] and acceleration [rad/s^2] (uniform samples)."""
-    from scipy.signal import savgol_filter
-
-    return (savgol_filter(theta, window, order, deriv=0, mode="interp"),
-            savgol_filter(theta, window, order, deriv=1, delta=dt, mode="interp"),
-            savgol_filter(theta, window, order, deriv=2, delta=dt, mode="interp"))
 
 
 def model_phase(theta_m: np.ndarray, omega_m: np.ndarray, omega0: float) -> np.ndarray:
@@ -200,21 +178,22 @@ def diagnose(t: np.ndarray, theta: np.ndarray, theta_m: np.ndarray, omega_m: np.
     spec = order_spectrum(r, model_phase(theta_m, omega_m, omega0))
     f, psd = welch_psd(r, dt)
 
-    win = savgol_window_samples(savgol_window_s, dt, savgol_order)
-    kin_d = savgol_kinematics(theta, dt, win, savgol_order)
-    kin_m = savgol_kinematics(theta_m, dt, win, savgol_order)
+    # the kinematics stage's window rule, so data and model are filtered as kinematics.parquet is
+    win = window_points(savgol_window_s, dt, savgol_order)
+    kin_d = savgol_uniform(theta, h=dt, window=win, order=savgol_order)
+    kin_m = savgol_uniform(theta_m, h=dt, window=win, order=savgol_order)
     rng = np.random.default_rng(seed)
-    replicas = [savgol_kinematics(theta_m + rng.normal(0.0, sigma, theta_m.size), dt, win, savgol_order)
+    replicas = [savgol_uniform(theta_m + rng.normal(0.0, sigma, theta_m.size), h=dt, window=win, order=savgol_order)
                 for _ in range(max(n_replicas, 2))]
     # hysteresis on omega: a few noise sd of the filtered omega, and 2 % of the peak speed
     w_noise = float(np.std(replicas[0][1] - kin_m[1]))
     thr_m = 0.02 * float(np.max(np.abs(omega_m)))
-    turns_m = turning_points(t, omega_m, threshold=max(thr_m, 1e-9))
-    turns_d = turning_points(t, kin_d[1], threshold=max(4.0 * w_noise, thr_m))
-    bounds = cycle_bounds(turns_m[1], turns_m[2])
+    turns_m = turning_points(t, theta_m, omega_m, threshold=max(thr_m, 1e-9))
+    turns_d = turning_points(t, kin_d[0], kin_d[1], threshold=max(4.0 * w_noise, thr_m))
+    bounds = cycle_bounds(turns_m.index, turns_m.direction)
     cyc = cycle_fit(t, r, theta_m, omega_m, bounds, sigma=sigma)
     env = _envelope(cyc, sigma)
-    freq = frequency_amplitude((turns_d[0], turns_d[2]), (turns_m[0], turns_m[2]), t, kin_d[0], theta_m, cyc)
+    freq = frequency_amplitude(turns_d, turns_m, cyc)
     hyst = hysteresis(t, kin_d, kin_m, replicas, omega0, bounds, near_fraction=near_fraction)
 
     rms = float(np.sqrt(np.mean(r * r)))

@@ -11,7 +11,8 @@ near the turning points (negative damping, eq. negativedampingdefinition).
 Both statistics are computed the same way on the data and on the baseline model observed
 through the same Savitzky-Golay filter, and on a few replicas of the model plus white noise
 of the data's level: the replicas tell how far noise alone moves them, so the data's
-excess over the model comes with a z-score.
+excess over the model comes with a z-score. Delta alpha and the negative-damping flags are
+:mod:`pendtrack.kinematics`'s.
 """
 
 from __future__ import annotations
@@ -20,10 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def delta_alpha(theta: np.ndarray, alpha: np.ndarray, omega0: float) -> np.ndarray:
-    """``alpha + Omega0^2 sin(theta)`` [rad/s^2] (eq. lobulosprovados)."""
-    return alpha + omega0 * omega0 * np.sin(theta)
+from pendtrack.kinematics import delta_alpha, negative_damping_flags, negative_damping_fraction
 
 
 def loop_areas(omega: np.ndarray, dalpha: np.ndarray, bounds: list[tuple[int, int]]) -> np.ndarray:
@@ -47,13 +45,6 @@ def near_turning(omega: np.ndarray, bounds: list[tuple[int, int]], fraction: flo
         w = np.abs(omega[i0:i1])
         mask[i0:i1] = w < fraction * w.max()
     return mask
-
-
-def negative_damping_fraction(omega: np.ndarray, dalpha: np.ndarray, mask: np.ndarray) -> float:
-    """Share of the masked samples where ``Delta alpha`` has the sign of ``omega`` [1]."""
-    if not mask.any():
-        return float("nan")
-    return float(np.mean(dalpha[mask] * omega[mask] > 0))
 
 
 @dataclass(frozen=True)
@@ -129,13 +120,13 @@ def hysteresis(t: np.ndarray, data: tuple[np.ndarray, np.ndarray, np.ndarray],
     a_d = loop_areas(data[1], da_d, bounds)
     a_m = loop_areas(model[1], da_m, bounds)
     mask = near_turning(model[1], bounds, near_fraction)
-    nd_d = negative_damping_fraction(data[1], da_d, mask)
-    nd_m = negative_damping_fraction(model[1], da_m, mask)
+    nd_d = negative_damping_fraction(negative_damping_flags(data[1], da_d), mask)
+    nd_m = negative_damping_fraction(negative_damping_flags(model[1], da_m), mask)
     ref_area, ref_nd = [], []
     for th, om, al in replicas:
         da_r = delta_alpha(th, al, omega0)
         ref_area.append(float(np.mean(loop_areas(om, da_r, bounds) - a_m)) if bounds else 0.0)
-        ref_nd.append(negative_damping_fraction(om, da_r, mask))
+        ref_nd.append(negative_damping_fraction(negative_damping_flags(om, da_r), mask))
     excess = float(np.mean(a_d - a_m)) if bounds else float("nan")
     area_sd = float(np.std(ref_area, ddof=1)) if len(ref_area) > 1 else float("nan")
     area_z = (excess - float(np.mean(ref_area))) / area_sd if area_sd > 0 else 0.0

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError
 
-VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mpg", ".mpeg", ".wmv"})
 PARQUET_SUFFIXES = frozenset({".parquet", ".pq"})
 MIN_SAMPLES = 100  # fewer samples cannot hold the few periods a fit and a held-out part need
 

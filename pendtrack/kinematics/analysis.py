@@ -1,6 +1,7 @@
 """The paper's model-free initial analysis, as pure functions on kinematic series.
 
-* turning points: omega = 0 crossings, linearly interpolated (:func:`turning_points`);
+* turning points: omega = 0 crossings, linearly interpolated, optionally with a hysteresis
+  band against noise, and the direction of each (:func:`turning_points`);
 * ``alpha(omega = 0) ~ -Omega0^2 sin(theta_ext)`` (eq. straightline) fitted through the
   origin -> model-free Omega0 with its standard error (:func:`estimate_omega0`);
 * ``Delta alpha = alpha + Omega0^2 sin(theta)`` (eq. lobulosprovados);
@@ -8,7 +9,11 @@
   ``A_omega = omega/(2 Omega0)`` (eqs. amplitudes, amplitudesobservable);
 * phase ``phi`` with ``tan(phi) = A_theta/A_omega`` (eq. phasephi) and phase speed
   ``d phi/dt`` (eq. phasespeed);
-* negative damping ``Delta alpha * omega > 0`` (eq. negativedampingdefinition).
+* negative damping ``Delta alpha * omega > 0`` (eq. negativedampingdefinition) per sample
+  (:func:`negative_damping`, :func:`negative_damping_flags`) and as a fraction of chosen
+  samples (:func:`negative_damping_fraction`).
+
+These are the package's only implementations of these facts; discovery and report use them.
 
 Caveat: Delta alpha is a small difference of large numbers. The dissipative accelerations
 are ~0.01-0.1 rad/s^2, while a 0.1 % error in Omega0 or the 1-2 % bias of the paper's
@@ -21,7 +26,7 @@ model seen through the same filter before reading physics into it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -34,31 +39,35 @@ OUTLIER_MADS = 5.0  # residuals beyond this many (scaled) MADs are dropped, then
 
 @dataclass(frozen=True)
 class TurningPoints:
-    """Where omega crosses zero.
+    """Where omega crosses zero (the turning points of theta).
 
     Attributes
     ----------
     t : numpy.ndarray
         Crossing times [s] (linear interpolation between samples).
     theta : numpy.ndarray
-        theta_ext there [rad].
+        theta_ext there [rad] (linear interpolation).
     alpha : numpy.ndarray
-        alpha there [rad/s^2].
+        alpha there [rad/s^2] (NaN when no alpha was given).
     index : numpy.ndarray of int64
         Index of the sample just before each crossing.
+    direction : numpy.ndarray of int64
+        +1 where omega turns from negative to positive (a minimum of theta), -1 where it
+        turns from positive to negative (a maximum).
     """
 
     t: np.ndarray
     theta: np.ndarray
     alpha: np.ndarray
     index: np.ndarray
+    direction: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __len__(self) -> int:
         return int(self.t.size)
 
     def to_dict(self) -> dict[str, Any]:
         return {"t": self.t.tolist(), "theta": self.theta.tolist(), "alpha": self.alpha.tolist(),
-                "index": self.index.tolist()}
+                "index": self.index.tolist(), "direction": self.direction.tolist()}
 
 
 @dataclass(frozen=True)
@@ -90,22 +99,35 @@ class Omega0Estimate:
                 "n_rejected": self.n_rejected, "rms": self.rms}
 
 
-def turning_points(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray,
+def turning_points(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray | None = None,
                    ok: np.ndarray | None = None, segment: np.ndarray | None = None, *,
-                   edge_s: float = 0.0) -> TurningPoints:
-    """omega = 0 crossings between consecutive usable samples of the same segment.
+                   edge_s: float = 0.0, threshold: float = 0.0) -> TurningPoints:
+    """Turning points: where omega changes sign, with optional hysteresis.
+
+    Each usable sample is in a state: +1 where ``omega > threshold``, -1 where
+    ``omega < -threshold``, 0 otherwise (inside the band, or not usable). A turning point
+    is a change between two consecutive non-zero states; it is placed at the last sign
+    change of omega between them, linearly interpolated. With ``threshold = 0`` every
+    sign change of omega is one (a sample exactly at 0 that omega leaves on the side it
+    came from is no turning point); a threshold of a few times the noise of omega keeps
+    noise from making extra ones.
 
     Parameters
     ----------
-    t, theta, omega, alpha : numpy.ndarray
-        [s], [rad], [rad/s], [rad/s^2].
+    t, theta, omega : numpy.ndarray
+        Times [s], angle [rad], angular velocity [rad/s].
+    alpha : numpy.ndarray, optional
+        Angular acceleration [rad/s^2], interpolated at the turning points; None gives NaN.
     ok : numpy.ndarray of bool, optional
-        Usable samples (both ends of a crossing must be usable). Default: finite ones.
+        Usable samples; every sample from one non-zero state to the next must be usable
+        (and finite) for a turning point between them. Default: finite ones.
     segment : numpy.ndarray of int, optional
-        Segment labels; a crossing must not straddle two segments.
+        Segment labels; a turning point must not straddle two segments.
     edge_s : float
         Ignore crossings closer than this to a segment's first/last sample [s] (the
         Savitzky-Golay edge windows are less accurate; use half the window).
+    threshold : float
+        Hysteresis band [rad/s], >= 0.
 
     Returns
     -------
@@ -114,30 +136,44 @@ def turning_points(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: n
     t = np.asarray(t, dtype=np.float64)
     theta = np.asarray(theta, dtype=np.float64)
     omega = np.asarray(omega, dtype=np.float64)
-    alpha = np.asarray(alpha, dtype=np.float64)
-    good = np.isfinite(theta) & np.isfinite(omega) & np.isfinite(alpha)
+    good = np.isfinite(theta) & np.isfinite(omega)
+    if alpha is None:
+        alpha = np.full(t.size, np.nan)
+    else:
+        alpha = np.asarray(alpha, dtype=np.float64)
+        good &= np.isfinite(alpha)
     if ok is not None:
         good &= np.asarray(ok, dtype=bool)
     seg = np.zeros(t.size, dtype=np.int64) if segment is None else np.asarray(segment, dtype=np.int64)
-    a, b = omega[:-1], omega[1:]
-    # from strictly one side to zero or the other side: a sample exactly at 0 counts once
-    cross = ((a > 0.0) & (b <= 0.0)) | ((a < 0.0) & (b >= 0.0))
-    cross &= good[:-1] & good[1:] & (seg[:-1] == seg[1:])
-    i = np.flatnonzero(cross)
+    state = np.zeros(t.size, dtype=np.int64)
+    state[good & (omega > threshold)] = 1
+    state[good & (omega < -threshold)] = -1
+    nz = np.flatnonzero(state)
+    change = np.flatnonzero(state[nz[1:]] != state[nz[:-1]])
+    lo, hi = nz[change], nz[change + 1]
+    # every sample from lo to hi usable and in one segment
+    n_bad = np.concatenate(([0], np.cumsum(~good)))
+    keep = (n_bad[hi + 1] == n_bad[lo]) & (seg[lo] == seg[hi])
+    lo, hi = lo[keep], hi[keep]
+    direction = state[hi]
+    # the last sign change of omega in [lo, hi]: between i and i + 1
+    flips = np.flatnonzero(np.signbit(omega[:-1]) != np.signbit(omega[1:]))
+    i = flips[np.searchsorted(flips, hi) - 1] if flips.size else np.zeros(0, dtype=np.int64)
     if edge_s > 0 and i.size:
         keep = np.ones(i.size, dtype=bool)
         for s in np.unique(seg[i]):
             rows = np.flatnonzero(seg == s)
-            lo, hi = t[rows[0]] + edge_s, t[rows[-1]] - edge_s
+            lo_t, hi_t = t[rows[0]] + edge_s, t[rows[-1]] - edge_s
             sel = seg[i] == s
-            keep[sel] &= (t[i[sel]] >= lo) & (t[i[sel] + 1] <= hi)
-        i = i[keep]
+            keep[sel] &= (t[i[sel]] >= lo_t) & (t[i[sel] + 1] <= hi_t)
+        i, direction = i[keep], direction[keep]
     denom = omega[i] - omega[i + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        f = np.where(denom != 0.0, omega[i] / denom, 0.0)
+        f = np.where(denom != 0.0, omega[i] / denom, 0.5)
     f = np.clip(f, 0.0, 1.0)
     lerp = lambda x: x[i] + f * (x[i + 1] - x[i])  # noqa: E731
-    return TurningPoints(t=lerp(t), theta=lerp(theta), alpha=lerp(alpha), index=i.astype(np.int64))
+    return TurningPoints(t=lerp(t), theta=lerp(theta), alpha=lerp(alpha), index=i.astype(np.int64),
+                         direction=direction.astype(np.int64))
 
 
 def savgol_bias_moments(window_points: int, order: int, h: float) -> tuple[float, float]:
@@ -212,21 +248,32 @@ def estimate_omega0(theta_ext: np.ndarray, alpha_ext: np.ndarray, *,
 
 
 def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
-    use = np.isfinite(x) & np.isfinite(y)
+    """Slope through the origin of ``y`` on ``x`` with iterated outlier rejection.
+
+    A point is an outlier when its residual is more than :data:`OUTLIER_MADS` scaled MADs
+    from the residuals' median (not from 0: residuals that share an offset, e.g. from a
+    zero of theta off the rest position, are not outliers). Rejection never leaves fewer
+    than :data:`MIN_TURNING_POINTS` points.
+    """
+    finite = np.isfinite(x) & np.isfinite(y)
+    use = finite
     n_total = int(x.size)
+    if use.sum() < MIN_TURNING_POINTS:
+        why = f", {n_total - int(use.sum())} of them not finite" if n_total > use.sum() else ""
+        raise FitError(f"only {int(use.sum())} usable turning points ({n_total} omega = 0 crossings found{why}): "
+                       f"need at least {MIN_TURNING_POINTS} to estimate Omega0 by eq. straightline "
+                       "(does the record hold one and a half oscillations?)")
     for _ in range(10):
-        if use.sum() < MIN_TURNING_POINTS:
-            raise FitError(f"only {int(use.sum())} usable turning points: need at least {MIN_TURNING_POINTS} "
-                           "to estimate Omega0 (does the record oscillate?)")
         xs, ys = x[use], y[use]
         sxx = float(np.dot(xs, xs))
         if sxx <= 0.0:
             raise FitError("all turning points are at theta = 0: cannot estimate Omega0")
         k = float(np.dot(xs, ys)) / sxx
         r = y - k * x
-        mad = 1.4826 * float(np.median(np.abs(r[use] - np.median(r[use]))))
-        new = use & (np.abs(r) <= OUTLIER_MADS * mad) if mad > 0 else use
-        if new.sum() == use.sum():
+        med = float(np.median(r[use]))
+        mad = 1.4826 * float(np.median(np.abs(r[use] - med)))
+        new = use & (np.abs(r - med) <= OUTLIER_MADS * mad) if mad > 0 else use
+        if new.sum() == use.sum() or new.sum() < MIN_TURNING_POINTS:
             break
         use = new
     if k >= 0.0:
@@ -242,7 +289,23 @@ def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
 
 
 def delta_alpha(theta: np.ndarray, alpha: np.ndarray, omega0: float) -> np.ndarray:
-    """``alpha + Omega0^2 sin(theta)`` [rad/s^2] (eq. lobulosprovados)."""
+    """What is left of the acceleration once gravity is taken away (eq. lobulosprovados).
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        Angle [rad] (0 hanging down).
+    alpha : numpy.ndarray
+        Angular acceleration [rad/s^2].
+    omega0 : float
+        Natural angular frequency Omega0 [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``Delta alpha = alpha + Omega0^2 sin(theta)`` [rad/s^2]: the dissipative and
+        inertial accelerations.
+    """
     return np.asarray(alpha) + omega0 ** 2 * np.sin(np.asarray(theta))
 
 
@@ -289,14 +352,60 @@ def phase_speed(theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray, omega0:
         return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
-def negative_damping(theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray, omega0: float) -> np.ndarray:
-    """Per sample: ``Delta alpha * omega > 0`` (eq. negativedampingdefinition). NaN -> False."""
-    d = delta_alpha(theta, alpha, omega0) * np.asarray(omega)
+def negative_damping_flags(omega: np.ndarray, dalpha: np.ndarray) -> np.ndarray:
+    """Per sample: ``Delta alpha`` pushes with the motion, ``Delta alpha * omega > 0``.
+
+    The definition of negative damping (eq. negativedampingdefinition).
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        Angular velocity [rad/s].
+    dalpha : numpy.ndarray
+        ``Delta alpha`` [rad/s^2] (:func:`delta_alpha`).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True where negative; NaN samples are False.
+    """
+    d = np.asarray(dalpha) * np.asarray(omega)
     return np.nan_to_num(d, nan=0.0) > 0.0
 
 
+def negative_damping(theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray, omega0: float) -> np.ndarray:
+    """Per sample negative damping from the kinematics (eq. negativedampingdefinition).
+
+    Parameters
+    ----------
+    theta, omega, alpha : numpy.ndarray
+        Angle [rad], angular velocity [rad/s], angular acceleration [rad/s^2].
+    omega0 : float
+        Natural angular frequency [rad/s] taken away with gravity (:func:`delta_alpha`).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        :func:`negative_damping_flags` of ``omega`` and ``Delta alpha``; NaN samples are False.
+    """
+    return negative_damping_flags(omega, delta_alpha(theta, alpha, omega0))
+
+
 def negative_damping_fraction(flags: np.ndarray, ok: np.ndarray | None = None) -> float:
-    """Fraction of (usable) samples with negative damping (NaN if there are none)."""
+    """Fraction of the selected samples with negative damping.
+
+    Parameters
+    ----------
+    flags : numpy.ndarray of bool
+        Per-sample negative damping (:func:`negative_damping`, :func:`negative_damping_flags`).
+    ok : numpy.ndarray of bool, optional
+        The samples counted (usable ones, or those near a turning point); default all.
+
+    Returns
+    -------
+    float
+        Share in [0, 1] [1]; NaN when no sample is selected.
+    """
     flags = np.asarray(flags, dtype=bool)
     if ok is not None:
         flags = flags[np.asarray(ok, dtype=bool)]

@@ -2,7 +2,7 @@
 
 The paper (section "Experimental") differentiates theta with Savitzky-Golay filters:
 cubic polynomials over windows of 25 frames at 120 fps. Here the window is a *duration*
-(``KinematicsConfig.savgol_window_s = 25/120 s``) so that a record at another frame rate
+(``KinematicsConfig.savgol_window_s``, the paper's 25 frames at 120 fps) so that a record at another frame rate
 gets the window of the same length in time.
 
 Procedure (:func:`savgol_kinematics`)
@@ -16,9 +16,9 @@ Procedure (:func:`savgol_kinematics`)
    uniform and complete they are used as they are; otherwise theta is interpolated by a
    cubic spline through the usable samples (this bridges the short holes and handles
    jittered timestamps).
-4. ``scipy.signal.savgol_filter`` (``mode="interp"``: the edge windows fit a polynomial
-   to the first/last window, no padding) gives theta, omega and alpha with ``delta`` = the
-   grid step. Segments are filtered separately, so a gap never smears into its
+4. :func:`savgol_uniform` (``scipy.signal.savgol_filter``, ``mode="interp"``: the edge
+   windows fit a polynomial to the first/last window, no padding) gives theta, omega and
+   alpha with ``delta`` = the grid step. Segments are filtered separately, so a gap never smears into its
    neighbours.
 5. Values are taken back to the original sample times (cubic spline of the smoothed
    series if the grid was not the samples themselves).
@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from pendtrack.config import KinematicsConfig
 from pendtrack.errors import PendtrackError
 
 log = logging.getLogger(__name__)
@@ -146,8 +147,39 @@ def split_segments(t: np.ndarray, usable: np.ndarray, h: float, max_gap_s: float
     return np.split(idx, cuts)
 
 
-def savgol_kinematics(t: Any, theta: Any, ok: Any = None, *, window_s: float = 25 / 120, order: int = 3,
-                      max_gap_s: float = 0.05, min_segment_s: float = 1.0) -> KinematicsResult:
+def savgol_uniform(theta: Any, *, h: float, window: int,
+                   order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Savitzky-Golay smoothed angle and its first two derivatives on a uniform grid.
+
+    ``scipy.signal.savgol_filter`` with ``mode="interp"``: the first and last half windows
+    take the polynomial fitted to the first/last whole window (no padding).
+
+    Parameters
+    ----------
+    theta : array_like
+        Angle [rad] at uniformly spaced times, no NaN.
+    h : float
+        Grid step [s].
+    window : int
+        Odd window length [samples] (:func:`window_points`), > ``order``.
+    order : int
+        Polynomial order.
+
+    Returns
+    -------
+    theta, omega, alpha : numpy.ndarray
+        Smoothed angle [rad], angular velocity [rad/s], angular acceleration [rad/s^2].
+    """
+    from scipy.signal import savgol_filter
+
+    return (savgol_filter(theta, window, order, deriv=0, delta=h, mode="interp"),
+            savgol_filter(theta, window, order, deriv=1, delta=h, mode="interp"),
+            savgol_filter(theta, window, order, deriv=2, delta=h, mode="interp"))
+
+
+def savgol_kinematics(t: Any, theta: Any, ok: Any = None, *, window_s: float = KinematicsConfig.savgol_window_s,
+                      order: int = KinematicsConfig.savgol_order, max_gap_s: float = KinematicsConfig.max_gap_s,
+                      min_segment_s: float = KinematicsConfig.min_segment_s) -> KinematicsResult:
     """Savitzky-Golay theta, omega, alpha, segment by segment (see the module docstring).
 
     Parameters
@@ -177,7 +209,6 @@ def savgol_kinematics(t: Any, theta: Any, ok: Any = None, *, window_s: float = 2
         Bad time axis, bad settings, or no segment long enough.
     """
     from scipy.interpolate import CubicSpline
-    from scipy.signal import savgol_filter
 
     t, theta, usable = _check_inputs(t, theta, ok)
     if not (order >= 1 and window_s > 0 and max_gap_s >= 0 and min_segment_s >= 0):
@@ -229,9 +260,7 @@ def savgol_kinematics(t: Any, theta: Any, ok: Any = None, *, window_s: float = 2
         else:
             resampled = True
             th_grid = CubicSpline(t[seg], theta[seg])(grid)
-        sm = savgol_filter(th_grid, n_win, order, deriv=0, delta=hg, mode="interp")
-        d1 = savgol_filter(th_grid, n_win, order, deriv=1, delta=hg, mode="interp")
-        d2 = savgol_filter(th_grid, n_win, order, deriv=2, delta=hg, mode="interp")
+        sm, d1, d2 = savgol_uniform(th_grid, h=hg, window=n_win, order=order)
         if on_grid:
             out_th[rows], out_om[rows], out_al[rows] = sm, d1, d2
         else:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from pendtrack.config import KinematicsConfig
 from pendtrack.errors import FitError
 from pendtrack.kinematics.analysis import (
     Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
@@ -49,13 +51,22 @@ class InitialAnalysis:
                 "negative_damping_fraction": self.negative_damping_fraction, "reason": self.reason}
 
 
-def _turning(kin: KinematicsResult) -> TurningPoints:
+def record_turning_points(kin: KinematicsResult) -> TurningPoints:
+    """Turning points of a differentiated record's usable samples, segment by segment.
+
+    Crossings within half a Savitzky-Golay window (``kin.info["window_s"]`` [s]) of a
+    segment's ends are left out: the edge windows are less accurate.
+    """
     edge = 0.5 * float(kin.info.get("window_s", 0.0))
     return turning_points(kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, kin.segment, edge_s=edge)
 
 
-def _moments(kin: KinematicsResult) -> tuple[float, float] | None:
-    info = kin.info
+def smoothing_moments(info: Mapping[str, Any]) -> tuple[float, float] | None:
+    """:func:`~pendtrack.kinematics.analysis.savgol_bias_moments` of the filter an ``info`` describes.
+
+    ``info`` holds ``window_points``, ``order`` and ``h`` [s] (:attr:`KinematicsResult.info`,
+    or the kinematics stage's provenance); None when one is missing.
+    """
     if not {"window_points", "order", "h"} <= set(info):
         return None
     return savgol_bias_moments(int(info["window_points"]), int(info["order"]), float(info["h"]))
@@ -72,12 +83,14 @@ def omega0_from_kinematics(kin: KinematicsResult, *, correct_smoothing: bool = T
     FitError
         Too few turning points or no restoring slope.
     """
-    tp = _turning(kin)
-    return estimate_omega0(tp.theta, tp.alpha, sg_moments=_moments(kin) if correct_smoothing else None)
+    tp = record_turning_points(kin)
+    return estimate_omega0(tp.theta, tp.alpha, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
 
 
-def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *, window_s: float = 25 / 120, order: int = 3,
-                               max_gap_s: float = 0.05, min_segment_s: float = 1.0) -> Omega0Estimate:
+def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *,
+                               window_s: float = KinematicsConfig.savgol_window_s,
+                               order: int = KinematicsConfig.savgol_order, max_gap_s: float = KinematicsConfig.max_gap_s,
+                               min_segment_s: float = KinematicsConfig.min_segment_s) -> Omega0Estimate:
     """Omega0 [rad/s] straight from theta(t): Savitzky-Golay, turning points, eq. straightline.
 
     Convenience for initial estimates of a fit; same parameters as :func:`savgol_kinematics`.
@@ -104,11 +117,11 @@ def analyse(kin: KinematicsResult, *, omega0: float | None = None, correct_smoot
     -------
     InitialAnalysis
     """
-    tp = _turning(kin)
+    tp = record_turning_points(kin)
     est: Omega0Estimate | None
     reason = ""
     try:
-        est = estimate_omega0(tp.theta, tp.alpha, sg_moments=_moments(kin) if correct_smoothing else None)
+        est = estimate_omega0(tp.theta, tp.alpha, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
     except FitError as exc:
         est, reason = None, str(exc)
     w0 = omega0 if omega0 is not None else (None if est is None else est.omega0)

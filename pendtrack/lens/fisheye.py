@@ -31,10 +31,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pendtrack.config import LENS_PROJECTIONS
+
 if TYPE_CHECKING:
     from pendtrack.config import LensConfig
 
-PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
+PROJECTIONS = LENS_PROJECTIONS  # one list, in pendtrack.config (checked when a config is loaded)
 
 
 def _check(projection: str, fov: float) -> None:

@@ -9,7 +9,6 @@ run-code fields fall back on each other (``tile_cm`` or ``l1_m``; ``kind`` or
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from collections.abc import Callable, Mapping
@@ -21,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from pendtrack.report import batch_figures as B
+from pendtrack.report.derive import finite_number
 from pendtrack.report.html import Facts, Markup, Note, Page, Section, Table, fmt, link
 from pendtrack.report.load import BatchData
 from pendtrack.report.run_report import draw
@@ -103,18 +103,8 @@ def _unit(name: str) -> str:
     return spec.unit if spec is not None else ""
 
 
-def _num(x: Any) -> float | None:
-    if isinstance(x, Mapping):
-        x = x.get("value")
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
 def _err(x: Any) -> float | None:
-    return _num(x.get("stderr")) if isinstance(x, Mapping) else None
+    return finite_number(x.get("stderr")) if isinstance(x, Mapping) else None
 
 
 def _pick(record: Mapping[str, Any], *names: str) -> Any:
@@ -134,14 +124,14 @@ def two_cuboid_curve(check: Mapping[str, Any], l1_max_cm: float) -> tuple[tuple[
 
     x_entry = _pick(check, "x", "X")
     l0_entry = _pick(check, "l0", "l0_m")
-    x, l0 = _num(x_entry), _num(l0_entry)
+    x, l0 = finite_number(x_entry), finite_number(l0_entry)
     if x is None or l0 is None:
         return None
-    g = _num(check.get("g")) or 9.81
+    g = finite_number(check.get("g")) or 9.81
     l1 = np.linspace(0.0, max(l1_max_cm, 1.0), 200)
     w = np.asarray(two_cuboid_omega0(l1 / 100.0, x=x, l0=l0, g=g), float)
-    xe = _err(x_entry) if _err(x_entry) is not None else _num(_pick(check, "x_stderr", "X_stderr"))
-    le = _err(l0_entry) if _err(l0_entry) is not None else _num(_pick(check, "l0_stderr", "l0_m_stderr"))
+    xe = _err(x_entry) if _err(x_entry) is not None else finite_number(_pick(check, "x_stderr", "X_stderr"))
+    le = _err(l0_entry) if _err(l0_entry) is not None else finite_number(_pick(check, "l0_stderr", "l0_m_stderr"))
     xt = f"X = {x:.3g}" + (f" ± {xe:.2g}" if xe is not None else "")
     lt = f"l₀ = {100 * l0:.1f}" + (f" ± {100 * le:.1f}" if le is not None else "") + " cm"
     return (l1, w), f"two cuboids (eq. consistencycheck): {xt}, {lt}"
@@ -157,8 +147,8 @@ def _overview(batch: BatchData, runs: pd.DataFrame | None) -> Section:
         facts.append(("runs", ", ".join(f"{k}: {v}" for k, v in runs["status"].value_counts().items())))
     if isinstance(info.get("models"), list):
         facts.append(("models", ", ".join(map(str, info["models"]))))
-    if _num(info.get("runtime_s")) is not None:
-        facts.append(("wall time", f"{_num(info['runtime_s']):.0f} s"))
+    if finite_number(info.get("runtime_s")) is not None:
+        facts.append(("wall time", f"{finite_number(info['runtime_s']):.0f} s"))
     blocks: list[Any] = [Facts(tuple(facts))]
     for p in batch.problems:
         blocks.append(Note(f"Could not read: {p}", kind="error"))
@@ -248,9 +238,9 @@ def _params_table(model: str, summary: pd.DataFrame, runs: pd.DataFrame, params:
     for idx in runs.index[keep]:
         row: list[Any] = [runs.at[idx, "run_id"], runs.at[idx, "kind"]]
         for p in names:
-            v = _num(summary.at[idx, params[p]["value"]])
-            se = _num(summary.at[idx, params[p]["stderr"]]) if "stderr" in params[p] else None
-            up = _num(summary.at[idx, params[p]["u_paper"]]) if "u_paper" in params[p] else None
+            v = finite_number(summary.at[idx, params[p]["value"]])
+            se = finite_number(summary.at[idx, params[p]["stderr"]]) if "stderr" in params[p] else None
+            up = finite_number(summary.at[idx, params[p]["u_paper"]]) if "u_paper" in params[p] else None
             row.append(None if v is None else f"{fmt(v)} ± {fmt(se)} [{fmt(up)}]")
         rows.append(tuple(row))
     header = ("run", "kind", *(f"{p} [{_unit(p) or '1'}]" for p in names))
@@ -281,9 +271,9 @@ def _runs_table(batch: BatchData, summary: pd.DataFrame, runs: pd.DataFrame, col
                           r["status"]]
         for m in models:
             w = cols[m].get("Omega0", {}).get("value")
-            row.append(_num(summary.at[idx, w]) if w else None)
+            row.append(finite_number(summary.at[idx, w]) if w else None)
             rms = f"{m}__rms"
-            v = _num(summary.at[idx, rms]) if rms in summary.columns else None
+            v = finite_number(summary.at[idx, rms]) if rms in summary.columns else None
             row.append(None if v is None else 1e3 * v)
         if has_disc:
             v = summary.at[idx, "discover__final_model"]

@@ -34,7 +34,8 @@ class Omega0:
     source: str  # human-readable origin, shown in captions
 
 
-def _number(x: Any) -> float | None:
+def finite_number(x: Any) -> float | None:
+    """``x`` (or ``x["value"]`` for a provenance entry) as a finite float, else None."""
     if isinstance(x, Mapping):
         x = x.get("value")
     try:
@@ -47,12 +48,12 @@ def _number(x: Any) -> float | None:
 def find_number(record: Mapping[str, Any], *names: str) -> float | None:
     """First finite number among ``names`` in a (possibly nested one level) provenance dict."""
     for name in names:
-        if name in record and (v := _number(record[name])) is not None:
+        if name in record and (v := finite_number(record[name])) is not None:
             return v
     for value in record.values():
         if isinstance(value, Mapping):
             for name in names:
-                if name in value and (v := _number(value[name])) is not None:
+                if name in value and (v := finite_number(value[name])) is not None:
                     return v
     return None
 
@@ -61,7 +62,7 @@ def param_values(fit: Mapping[str, Any]) -> dict[str, float]:
     """A fit.json's parameter values by name (``{"value", ...}`` entries or bare numbers)."""
     out = {}
     for name, entry in (fit.get("params") or {}).items():
-        v = _number(entry)
+        v = finite_number(entry)
         if v is not None:
             out[str(name)] = v
     return out
@@ -75,7 +76,7 @@ def data_omega0(run: RunData) -> Omega0 | None:
         err = find_number(extra, "Omega0_stderr", "omega0_stderr")
         return Omega0(v, err, "the kinematics stage's model-free estimate from the turning points")
     for name, fit in run.fits.items():
-        v = _number(fit.get("omega0_hat"))
+        v = finite_number(fit.get("omega0_hat"))
         if v is not None:
             return Omega0(v, None, f"the model-free estimate recorded by the {name} fit")
     return None
@@ -87,10 +88,10 @@ def model_omega0(run: RunData, model: str) -> Omega0 | None:
     if not fit:
         return None
     entry = (fit.get("params") or {}).get("Omega0")
-    v = _number(entry)
+    v = finite_number(entry)
     if v is None:
         return None
-    err = _number(entry.get("stderr")) if isinstance(entry, Mapping) else None
+    err = finite_number(entry.get("stderr")) if isinstance(entry, Mapping) else None
     return Omega0(v, err, f"fitted by the {model} model")
 
 
@@ -105,7 +106,7 @@ def best_omega0(run: RunData, preference: tuple[str, ...] = ("fractional", "clas
 def savgol_setup(run: RunData, config: Config) -> tuple[float, int]:
     """Window [s] and order of the Savitzky-Golay filter the kinematics stage used (else config)."""
     section = run.stage_config("kinematics").get("kinematics", {})
-    window = _number(section.get("savgol_window_s")) or config.kinematics.savgol_window_s
+    window = finite_number(section.get("savgol_window_s")) or config.kinematics.savgol_window_s
     order = section.get("savgol_order", config.kinematics.savgol_order)
     return float(window), int(order)
 
@@ -195,19 +196,22 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     from pendtrack import kinematics
 
     t, th, om, al = (kin[c].to_numpy(float) for c in ("t", "theta", "omega", "alpha"))
-    seg = kin["segment"].to_numpy() if "segment" in kin.columns else None
+    seg = kin["segment"].to_numpy() if "segment" in kin.columns else np.zeros(t.size, dtype=np.int64)
     extra = extra or {}
-    w = extra.get("window_s")
-    edge = 0.5 * float(w) if _number(w) is not None else 0.5 * window_s
-    tp = kinematics.turning_points(t, th, om, al, kin["ok"].to_numpy(bool), seg, edge_s=edge)
-    raw = kinematics.estimate_omega0(tp.theta, tp.alpha)
-    points, h = _number(extra.get("window_points")), _number(extra.get("h"))
-    est, corrected = raw, False
+    w = finite_number(extra.get("window_s"))
+    info: dict[str, Any] = {"window_s": window_s if w is None else w, "order": extra.get("order", order)}
+    points, h = finite_number(extra.get("window_points")), finite_number(extra.get("h"))
     if points is not None and h is not None:
-        moments = kinematics.analysis.savgol_bias_moments(int(points), int(extra.get("order", order)), h)
-        est, corrected = kinematics.estimate_omega0(tp.theta, tp.alpha, sg_moments=moments), True
+        info.update(window_points=points, h=h)
+    record = kinematics.KinematicsResult(t=t, theta=th, omega=om, alpha=al, ok=kin["ok"].to_numpy(bool), segment=seg,
+                                         info=info)
+    tp = kinematics.record_turning_points(record)
+    raw = kinematics.estimate_omega0(tp.theta, tp.alpha)
+    moments = kinematics.smoothing_moments(info)
+    est = raw if moments is None else kinematics.estimate_omega0(tp.theta, tp.alpha, sg_moments=moments)
+    corrected = moments is not None
     return TurningPoints(theta_ext=np.asarray(tp.theta, float), alpha_ext=np.asarray(tp.alpha, float),
-                         omega0=float(est.omega0), omega0_stderr=_number(est.stderr), omega0_raw=float(raw.omega0),
+                         omega0=float(est.omega0), omega0_stderr=finite_number(est.stderr), omega0_raw=float(raw.omega0),
                          corrected=corrected)
 
 

@@ -15,6 +15,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from pendtrack.kinematics import negative_damping_flags, negative_damping_fraction
 from pendtrack.report.style import (
     DATA_COLOR,
     FLAG_COLOR,
@@ -242,13 +243,13 @@ def delta_alpha_figure(t: np.ndarray, omega: np.ndarray, delta_alpha: np.ndarray
     s = _thin(int(good.sum()), 12000)
     sc = ax.scatter(omega[good][s], delta_alpha[good][s], c=t[good][s], cmap="viridis", s=1.5, linewidths=0,
                     zorder=2)
-    neg = (delta_alpha * omega > 0)[good]
+    neg = negative_damping_fraction(negative_damping_flags(omega, delta_alpha), good)
     ax.set_xlabel(L_OMEGA)
     ax.set_ylabel(L_DALPHA)
     ax.margins(0.04)
     _shade_negative_damping(ax)
     ax.fill_between([], [], color=NEGATIVE_FILL,
-                    label=f"negative damping (Δα·ω > 0): {100 * neg.mean():.1f} % of samples")
+                    label=f"negative damping (Δα·ω > 0): {100 * neg:.1f} % of samples")
     ax.legend(loc="upper right", fontsize=8)
     cb = fig.colorbar(sc, ax=ax, pad=0.01)
     cb.set_label(L_T, fontsize=9)

@@ -18,7 +18,6 @@ import base64
 import html
 import json
 import re
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Union
 
@@ -292,8 +291,3 @@ def read_provenance(text: str) -> dict[str, Any] | None:
 def link(href: str, text: str) -> Markup:
     """An escaped ``<a>`` element as trusted markup (for table cells)."""
     return Markup(f'<a href="{html.escape(href, quote=True)}">{html.escape(text)}</a>')
-
-
-def sequence_text(values: Sequence[Any]) -> str:
-    """Comma-separated text of a short sequence (for facts)."""
-    return ", ".join(fmt(v) if isinstance(v, (int, float)) else str(v) for v in values)
