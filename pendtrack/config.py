@@ -252,6 +252,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "lens.fov_deg": (_within(0, 360, lo_open=True, hi_open=True),),
     "lens.fixed_pixels": (_within(0, 1, lo_open=True),),
     "video.fps": (_ge(0),),
+    "video.start": (_ge(0),),
+    "video.end": (_ge(0),),
     "track.roi": (_sizes(0, 4, what="[] or [x, y, w, h]"), _each(_ge(0), "pixels >= 0")),
     "track.search_margin_px": (_gt(0),),
     "track.min_score": (_within(0, 1),),
@@ -260,6 +262,9 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "track.refine": (_one_of(TRACK_REFINE),),
     "track.max_coast_frames": (_ge(0),),
     "track.min_contrast_ratio": (_within(0, 1, lo_open=True),),
+    "track.acquire_step_s": (_gt(0),),
+    "track.acquire_window_s": (_ge(0),),
+    "track.max_drift_px": (_gt(0),),
     "angle.axle": (_sizes(0, 2, what="[] or [x, y]"),),
     "angle.rest_seconds": (_gt(0),),
     "angle.rest_omega_max": (_gt(0),),
@@ -345,7 +350,11 @@ def _coerce_section(cls: type, values: dict[str, Any], source: str, section: str
     coerced = {k: _coerce_value(v, hints[k], source, f"{section}.{k}") for k, v in values.items()}
     for k, v in coerced.items():
         _check_value(v, values[k], source, f"{section}.{k}")
-    return cls(**coerced)
+    out = cls(**coerced)
+    if isinstance(out, VideoConfig) and out.end and out.end <= out.start:  # the one rule across two keys
+        raise ConfigError(f"'{section}.end' must be 0 (to the last frame) or later than "
+                          f"'{section}.start' = {out.start!r}, got {out.end!r}", path=source)
+    return out
 
 
 def config_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Config:
