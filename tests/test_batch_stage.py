@@ -217,7 +217,7 @@ def threads_job(video, *, out_dir, config, models, force, discover):
 
 
 def test_workers_are_single_threaded(tmp_path):
-    from pendtrack.batch.worker import THREAD_ENV_VARS
+    from pendtrack.parallel import THREAD_ENV_VARS
 
     folder = make_folder(tmp_path / "videos", {"00nn1.mp4": {}, "03nn1.mp4": {}})
     env_before = {v: os.environ.get(v) for v in THREAD_ENV_VARS}

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from pendtrack.artifacts import SCHEMAS, Provenance, read_artifact
-from pendtrack.batch.executor import check_scheduler, is_dask_address, local_worker_count
+from pendtrack.batch.executor import check_scheduler, is_dask_address
+from pendtrack.parallel import worker_count as local_worker_count
 from pendtrack.batch.resume import (
     DONE_NAME,
     is_run_complete,

@@ -2,13 +2,15 @@
 
 * :mod:`pendtrack.batch.runcode` parses run codes (``06na5``) and lists a folder's videos;
 * :mod:`pendtrack.batch.resume` writes and checks each run's ``done.json`` marker;
-* :mod:`pendtrack.batch.worker` is what runs in a worker (the per-run job, thread limits);
+* :mod:`pendtrack.batch.worker` is what runs in a worker around the per-run job (log, done marker);
 * :mod:`pendtrack.batch.executor` runs tasks on local processes or a Dask cluster;
 * :mod:`pendtrack.batch.summary` builds summary.parquet/csv from the run artifacts;
 * :mod:`pendtrack.batch.twocuboid` fits eq. consistencycheck to Omega0(l1).
 
-The stage that ties them together is :func:`pendtrack.stages.batch.batch_stage`. Nothing
-heavy is imported here.
+The stage that ties them together is :func:`pendtrack.stages.batch.batch_stage`, and the
+per-run job (the pipeline's stages) is :func:`pendtrack.stages.batch_job.pipeline_job`:
+``batch`` never imports ``stages``. Process pools and thread limits come from
+:mod:`pendtrack.parallel`. Nothing heavy is imported here.
 """
 
 from pendtrack.batch.runcode import RunCode, RunCodeError, parse_run_code

@@ -1,10 +1,10 @@
 """Where the runs execute: local worker processes or a Dask cluster, same results either way.
 
-``scheduler="processes"`` (the default) starts a ``concurrent.futures.ProcessPoolExecutor``
-(``spawn`` start method, so each worker starts clean with its thread limits already in the
-environment); nothing else needs to run. A Dask scheduler address (``tcp://HOST:PORT``)
-submits the runs to that cluster with ``dask.distributed.Client(address).submit`` and
-collects them with ``as_completed``; the workers must have pendtrack installed and see the
+``scheduler="processes"`` (the default) starts a process pool
+(:func:`pendtrack.parallel.process_pool`: ``spawn`` start method, so each worker starts clean
+with its thread limits already in the environment); nothing else needs to run. A Dask
+scheduler address (``tcp://HOST:PORT``) submits the runs to that cluster with
+``dask.distributed.Client(address).submit`` and collects them with ``as_completed``; the workers must have pendtrack installed and see the
 videos and the output folder under the same paths (a shared file system), and should run
 one thread each (``dask worker ADDRESS --nthreads 1``).
 """
@@ -13,15 +13,13 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import multiprocessing
-import os
 import re
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, as_completed
 from typing import Any
 
-from pendtrack.batch.worker import THREAD_ENV_VARS, limit_threads
 from pendtrack.errors import ConfigError, PendtrackError
+from pendtrack.parallel import process_pool, worker_count
 
 log = logging.getLogger(__name__)
 
@@ -41,39 +39,14 @@ def check_scheduler(scheduler: str) -> str:
                       f"got {scheduler!r}")
 
 
-def local_worker_count(workers: int, n_tasks: int) -> int:
-    """Processes to start: ``workers`` (0 = usable cores), never more than the tasks."""
-    if workers < 0:
-        raise ConfigError(f"workers must be >= 0, got {workers}")
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(workers or cores, n_tasks))
-
-
-@contextlib.contextmanager
-def thread_env(n: int) -> Iterator[None]:
-    """Set the BLAS/OpenMP/numba thread variables to ``n`` while the block runs, then restore them."""
-    saved = {v: os.environ.get(v) for v in THREAD_ENV_VARS}
-    os.environ.update({v: str(max(1, n)) for v in THREAD_ENV_VARS})
-    try:
-        yield
-    finally:
-        for var, value in saved.items():
-            if value is None:
-                os.environ.pop(var, None)
-            else:
-                os.environ[var] = value
-
-
 class LocalExecutor:
-    """Local worker processes (``spawn``), each capped at ``threads`` threads."""
+    """Local worker processes (:func:`pendtrack.parallel.process_pool`: ``spawn``), each capped at
+    ``threads`` threads."""
 
     def __init__(self, workers: int, threads: int) -> None:
         self.workers = workers
         self.threads = threads
-        self._env = thread_env(threads)
-        self._env.__enter__()  # workers are spawned lazily by submit(): keep the env until close()
-        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                         initializer=limit_threads, initargs=(threads,))
+        self._pool = process_pool(workers, threads=threads)
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future:
         """Start ``fn(*args)`` in a worker; a ``concurrent.futures.Future``."""
@@ -85,10 +58,7 @@ class LocalExecutor:
 
     def close(self) -> None:
         """Wait for the workers to exit (pending runs cancelled) and restore the environment."""
-        try:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-        finally:
-            self._env.__exit__(None, None, None)
+        self._pool.shutdown(wait=True, cancel_futures=True)
 
     def describe(self) -> str:
         """One line for the log."""
@@ -136,7 +106,7 @@ def open_executor(scheduler: str, *, workers: int, threads: int, n_tasks: int) -
     check_scheduler(scheduler)
     ex: LocalExecutor | DaskExecutor
     if scheduler == "processes":
-        ex = LocalExecutor(local_worker_count(workers, n_tasks), threads)
+        ex = LocalExecutor(worker_count(workers, n_tasks), threads)
     else:
         ex = DaskExecutor(scheduler)
     log.info("batch on %s", ex.describe())

@@ -1,9 +1,14 @@
-"""What runs inside a batch worker: one video's job, the done marker, thread limits.
+"""What runs inside a batch worker: one run's task around a job, its log and done marker.
 
 Everything here is importable at module level and takes plain picklable arguments (paths
-as ``str``, the config as a dict), so the same functions run in a local
-``ProcessPoolExecutor`` and on a Dask cluster. Importing this module is cheap (no numpy),
-so a worker can limit its threads before the numerical libraries load.
+as ``str``, the config as a dict), so the same functions run in a local process pool and on
+a Dask cluster. Importing this module is cheap (no numpy), so a worker can limit its
+threads (:func:`pendtrack.parallel.limit_threads`) before the numerical libraries load.
+
+The job itself (the pipeline's stages for one video) is passed in by the caller as a
+module-level function with the :class:`Job` signature:
+:func:`pendtrack.stages.batch_job.pipeline_job` for ``pendtrack batch`` (``batch`` sits below
+``stages`` in the import layers and does not import it).
 """
 
 from __future__ import annotations
@@ -19,9 +24,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
-THREAD_ENV_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
-                   "NUMEXPR_NUM_THREADS", "NUMBA_NUM_THREADS")
-
+from pendtrack.parallel import limit_threads
 
 class Job(Protocol):
     """The per-run job: process one video into a run folder.
@@ -32,35 +35,6 @@ class Job(Protocol):
 
     def __call__(self, video: str, *, out_dir: str, config: Any, models: tuple[str, ...], force: bool,
                  discover: bool) -> str | None: ...
-
-
-def limit_threads(n: int) -> None:
-    """Cap the threads of BLAS/OpenMP, numba and OpenCV in this process at ``n``.
-
-    Environment variables only bind libraries loaded later (set them before the process
-    starts, as the local pool does); numba and OpenCV are also capped at run time.
-    """
-    n = max(1, int(n))
-    for var in THREAD_ENV_VARS:
-        os.environ[var] = str(n)
-    try:
-        import cv2
-
-        cv2.setNumThreads(n)
-    except ImportError:  # pragma: no cover - OpenCV is a dependency
-        pass
-    try:
-        import numba
-
-        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
-    except (ImportError, ValueError):  # pragma: no cover
-        pass
-    try:  # optional: caps BLAS pools already loaded (e.g. in a Dask worker)
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(n)
-    except ImportError:
-        pass
 
 
 @dataclass(frozen=True)
@@ -109,38 +83,6 @@ class RunTask:
     def from_dict(cls, d: Mapping[str, Any]) -> "RunTask":
         """Inverse of :meth:`to_dict`."""
         return cls(**{**d, "models": tuple(d["models"])})
-
-
-def pipeline_job(video: str, *, out_dir: str, config: Any, models: tuple[str, ...], force: bool,
-                 discover: bool) -> str | None:
-    """The real per-run job: :func:`pendtrack.stages.run.run_pipeline` (track, angle,
-    kinematics, fit, report.html), then discovery if asked.
-
-    A failure of discovery alone (a :class:`~pendtrack.errors.PendtrackError`, e.g. a record
-    too short for its held-out test) does not fail the run: it is returned as a note.
-    """
-    from pendtrack.errors import PendtrackError
-    from pendtrack.stages.run import run_pipeline
-
-    run_pipeline(video, out_dir=out_dir, config=config, models=models, force=force, progress=False)
-    if not discover:
-        return None
-    try:
-        discover_job(out_dir=out_dir, config=config, force=force)
-    except PendtrackError as exc:
-        return f"discover: {describe_error(exc)}"
-    return None
-
-
-def discover_job(*, out_dir: str, config: Any, force: bool) -> None:
-    """Discovery on a run folder's kinematics (:func:`pendtrack.stages.discover.discover_stage`),
-    then the run's report again so that it shows discovery too."""
-    from pendtrack.stages.discover import discover_stage
-    from pendtrack.stages.report import report_stage
-
-    discover_stage(Path(out_dir) / "kinematics.parquet", out_dir=Path(out_dir), config=config, force=force,
-                   progress=False)
-    report_stage(Path(out_dir), config=config, force=force, progress=False)
 
 
 @contextlib.contextmanager

@@ -24,6 +24,7 @@ from pendtrack.discovery.selection import (
     run_tasks, warm_start,
 )
 from pendtrack.errors import FitError
+from pendtrack.parallel import worker_count
 
 
 def diagnose_pair(pair: FitPair, data: AnalysisData, config: Config) -> Diagnosis:
@@ -34,12 +35,6 @@ def diagnose_pair(pair: FitPair, data: AnalysisData, config: Config) -> Diagnosi
                     model=pair.full.model, savgol_window_s=data.savgol_window * data.dt,
                     savgol_order=data.savgol_order, n_replicas=dc.n_replicas, seed=dc.seed,
                     near_fraction=dc.near_turning_fraction)
-
-
-def _resolve_workers(workers: int) -> int:
-    import os
-
-    return workers if workers > 0 else (os.cpu_count() or 1)
 
 
 def discover(series: AngleSeries, *, config: Config, baseline: str | None = None,
@@ -85,7 +80,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
         raise ConfigError(str(exc)) from None
     data = prepare(series, analysis_rate_hz=dc.analysis_rate_hz, train_fraction=dc.train_fraction,
                    savgol_window_s=config.kinematics.savgol_window_s, savgol_order=config.kinematics.savgol_order)
-    workers = _resolve_workers(dc.workers)
+    workers = worker_count(max(dc.workers, 0))
     common = dict(cost=config.fit.cost, memory_s=config.models.memory_s)
     tick = on_progress or (lambda n: None)
 
@@ -100,7 +95,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     current, accepted = base, []
     steps: list[Step] = []
     judged_all: list[Candidate] = []
-    executor = make_executor(min(workers, max(len(pool), 1)))
+    executor = make_executor(worker_count(workers, len(pool)))
     try:
         for step in range(1, dc.max_effects + 1):
             remaining = [e for e in pool if e.name not in accepted]

@@ -12,7 +12,7 @@ Each step fits every remaining candidate ``current + effect`` twice, by output e
   parameters with their uncertainties.
 
 Candidates of one step are independent, so they run in parallel worker processes
-(:class:`concurrent.futures.ProcessPoolExecutor`, ``spawn``: safe with numba's threads).
+(:func:`pendtrack.parallel.process_pool`: ``spawn``, one BLAS/numba thread per worker).
 
 Decision thresholds
 -------------------
@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import logging
 import math
-import multiprocessing
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -68,6 +67,7 @@ import numpy as np
 from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.residuals import effective_n
 from pendtrack.discovery.result import Candidate, FitSummary
+from pendtrack.parallel import process_pool
 
 log = logging.getLogger(__name__)
 
@@ -348,10 +348,11 @@ def run_tasks(fn: Callable[..., FitPair], args: Sequence[tuple], *, on_done: Cal
 
 
 def make_executor(workers: int) -> ProcessPoolExecutor | None:
-    """A spawn-context process pool, or None for ``workers <= 1``."""
+    """A process pool (:func:`pendtrack.parallel.process_pool`: spawn, one thread per worker), or
+    None for ``workers <= 1``."""
     if workers <= 1:
         return None
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    return process_pool(workers)
 
 
 def judge_heldout(pair: FitPair, current: FitPair, data: AnalysisData) -> tuple[float, float]:

@@ -14,25 +14,23 @@ landscape then has a local minimum every period. Each start therefore fits a *gr
 the previous optimum, and so on up to the whole record. Omega0 is pinned to ~1e-3 by the
 first window, to ~1e-4 by the next ones, before the long record is seen.
 
-Starts run in parallel in worker processes (:class:`concurrent.futures.ProcessPoolExecutor`
-with the ``spawn`` context, safe with numba's threads); each task receives the pickled
+Starts run in parallel in worker processes (:func:`pendtrack.parallel.process_pool`: ``spawn``
+context, one BLAS/OpenMP/numba thread per worker); each task receives the pickled
 :class:`~pendtrack.fitting.problem.FitProblem` (plain arrays) and one start vector. Workers
 warm the simulator once (numba kernels load from their ``cache=True`` cache or compile).
 """
 
 from __future__ import annotations
 
-import contextlib
-import multiprocessing
-import os
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Sequence
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 
 import numpy as np
 
 from pendtrack.fitting.lm import levenberg_marquardt, sumsq
 from pendtrack.fitting.problem import FitProblem
+from pendtrack.parallel import process_pool, worker_count
 
 FINAL_TOL = 1e-8  # ftol/xtol on the whole window: a 0.01-0.03 standard-error change of a parameter
 RUNG_TOL = 1e-5  # on the shorter windows only the basin matters
@@ -69,13 +67,6 @@ class StartOutcome:
     success: bool
     nfev: int
     message: str
-
-
-def resolve_workers(workers: int) -> int:
-    """Number of processes: ``0`` means all cores [1]."""
-    if workers < 0:
-        raise ValueError("workers must be >= 0")
-    return workers or (os.cpu_count() or 1)
 
 
 def window_ladder(t_start: float, t_end: float, first_end: float) -> tuple[float, ...]:
@@ -274,7 +265,7 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
         Each a problem (pickled to a worker: plain arrays only), a start vector and the
         growing-window ladder [s].
     workers : int
-        Processes; 0 = ``os.cpu_count()``, 1 = in this process.
+        Processes; 0 = the usable cores (:func:`pendtrack.parallel.worker_count`), 1 = in this process.
     max_nfev : int, optional
         Cap on iterations per window.
     on_progress : callable, optional
@@ -284,7 +275,7 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
     -------
     list of StartOutcome, in task order (``index`` = task number).
     """
-    n_proc = min(resolve_workers(workers), len(tasks))
+    n_proc = worker_count(workers, len(tasks))
     outcomes: list[StartOutcome] = []
     if n_proc <= 1:
         for i, (prob, x0, ends) in enumerate(tasks):
@@ -292,9 +283,7 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
             if on_progress:
                 on_progress(1)
         return outcomes
-    ctx = multiprocessing.get_context("spawn")
-    with _single_threaded_children(), ProcessPoolExecutor(max_workers=n_proc, mp_context=ctx, initializer=_warm,
-                                                          initargs=(tasks[0][0], tasks[0][1])) as pool:
+    with process_pool(n_proc, initializer=_warm, initargs=(tasks[0][0], tasks[0][1])) as pool:
         futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev)
                    for i, (prob, x0, ends) in enumerate(tasks)]
         for fut in as_completed(futures):
@@ -302,29 +291,6 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
             if on_progress:
                 on_progress(1)
     return sorted(outcomes, key=lambda o: o.index)
-
-
-THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
-
-
-@contextlib.contextmanager
-def _single_threaded_children() -> Iterator[None]:
-    """Spawned workers start with one BLAS/OpenMP/numba thread each (one process per core already).
-
-    The variables are set in this process only while the pool starts its workers, then restored;
-    a value the user set is left alone.
-    """
-    saved = {k: os.environ.get(k) for k in THREAD_VARS}
-    for k in THREAD_VARS:
-        os.environ.setdefault(k, "1")
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
 def run_starts(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *, workers: int = 0,

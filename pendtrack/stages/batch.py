@@ -1,7 +1,7 @@
 """`pendtrack batch`: the whole pipeline over a folder of run-coded videos, resumable.
 
 For every video whose name is a run code (see :mod:`pendtrack.batch.runcode`) the per-run
-job (:func:`pendtrack.batch.worker.pipeline_job`: ``run_pipeline``, plus discovery when
+job (:func:`pendtrack.stages.batch_job.pipeline_job`: ``run_pipeline``, plus discovery when
 asked) runs into ``DIR/<run id>/`` on local worker processes or a Dask cluster
 (:mod:`pendtrack.batch.executor`). A run already complete for the same video and config is
 not recomputed (:mod:`pendtrack.batch.resume`); a failing video is recorded with its error
@@ -27,10 +27,11 @@ from pendtrack.batch.resume import DONE_NAME, is_run_complete, read_done, run_co
 from pendtrack.batch.runcode import PlannedRun, SkippedFile, find_videos, plan_runs
 from pendtrack.batch.summary import failed_row, run_row, skipped_row, summary_frame, write_summary
 from pendtrack.batch.twocuboid import two_cuboid_check
-from pendtrack.batch.worker import RunTask, describe_error, pipeline_job, run_task
+from pendtrack.batch.worker import RunTask, describe_error, run_task
 from pendtrack.config import Config
 from pendtrack.errors import PendtrackError
 from pendtrack.progress import progress_bar
+from pendtrack.stages.batch_job import pipeline_job
 
 log = logging.getLogger(__name__)
 

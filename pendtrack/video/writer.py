@@ -3,7 +3,9 @@
 Frames are BGR uint8 arrays (H, W, 3), the OpenCV convention. They are converted here to
 YUV 4:2:0 with the BT.601 limited-range matrix, rounded to nearest, chroma the mean of
 each 2x2 block (libswscale's default conversion truncates, which shifts greys by about
-one level and tints them), and the stream is tagged BT.601 / limited range. Frame ``i``
+one level and tints them), and the stream is tagged BT.601 / limited range. The stream
+has no B-frames (:data:`X264_PARAMS`), which makes the bitstream a function of the frames
+alone (bit-identical videos for identical frames, in any order and in any process). Frame ``i``
 gets the presentation timestamp ``i / fps`` exactly (time base ``1 / fps`` as a fraction).
 
 The file is written under a temporary name (``.NAME.XXXX.tmp``) in the target folder and
@@ -25,6 +27,16 @@ import numpy as np
 
 from pendtrack.errors import VideoError
 
+
+# libx264 options beyond crf and preset. No B-frames: with them, x264's AVX-512 macroblock-tree
+# code (the lookahead's propagation through bidirectional references) reads heap memory it never
+# initialised, so on AVX-512 CPUs the same frames gave different bitstreams depending on what the
+# process had allocated and freed before (two renders alternated in one process). Without B-frames
+# (or without AVX-512, or with MALLOC_PERTURB_ set) the bitstream depends on the frames only (and
+# on the CPU's instruction set, as x264's SIMD levels differ in the last bits); mbtree keeps working
+# and the files are no larger for these static-camera scenes. Checked by
+# tests/test_render_stage.py::test_render_is_bit_identical_across_calls_and_processes.
+X264_PARAMS = "bframes=0"
 
 # BT.601 limited range: rows Y, Cb, Cr; columns B, G, R (inputs 0..255), then the offset.
 _BGR_TO_YUV = np.array([
@@ -114,7 +126,7 @@ class VideoWriter:
             stream.pix_fmt = "yuv420p"
             stream.time_base = 1 / self._rate
             stream.codec_context.time_base = 1 / self._rate
-            stream.options = {"crf": str(int(crf)), "preset": preset}
+            stream.options = {"crf": str(int(crf)), "preset": preset, "x264-params": X264_PARAMS}
             stream.codec_context.color_range = 1  # MPEG (limited) range
             stream.codec_context.colorspace = 6  # SMPTE 170M = BT.601
             self._stream = stream
