@@ -113,6 +113,20 @@ def test_normal_lens_tracked_as_fisheye_stops_angle_with_one_line(tracked, tmp_p
     assert note is not None and note.kind == "error" and "Lens mismatch" in note.text
 
 
+def test_run_stops_on_the_mismatch_and_works_with_the_flag_it_names(tracked, tmp_path):
+    video = tracked["normal"] / "video.mp4"
+    res = CliRunner().invoke(cli, ["run", str(video), "--out", str(tmp_path), "-q"])
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("error:")]
+    assert res.exit_code == 2 and len(lines) == 1 and "lens mismatch" in lines[0] and "--projection none" in lines[0]
+    assert not (tmp_path / "angle.parquet").exists() and "Traceback" not in res.output
+    # with the flag it names, `run` gets past the angle stage (the 2-s record then stops at the fit)
+    res = CliRunner().invoke(cli, ["run", str(video), "--projection", "none", "--model", "classic",
+                                   "--out", str(tmp_path), "-q"])
+    assert "Traceback" not in res.output and "lens mismatch" not in res.output
+    check = read_artifact(tmp_path / "angle.parquet", "angle").provenance.extra["lens_check"]
+    assert check["verdict"] == "consistent" and check["best"] == "configured"
+
+
 def test_paper_fisheye_render_raises_no_alarm(tracked):
     d = tracked["fisheye"]
     res = angle_stage(d / "track.parquet", out_dir=d, config=Config(), progress=False)
