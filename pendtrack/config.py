@@ -68,6 +68,8 @@ class AngleConfig:
     axle: tuple[float, ...] = ()  # x, y of the axle in corrected px; () fits a circle to the track
     rest_seconds: float = 2.0  # length of the final still stretch used as the zero of theta [s]
     rest_omega_max: float = 0.05  # the pendulum counts as still below this |omega| [rad/s]
+    lens_check: str = "error"  # configured lens fits the track's circle clearly worse than another: error | warn | off
+    lens_ratio: float = 2.0  # ... clearly = its circle residual is at least this many times the best lens' [1]
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -7,6 +7,8 @@ then post-processed in BGR before it is encoded with :class:`pendtrack.video.wri
 * ``poster``: a static pink disc (the spot's colour, larger) in a corner;
 * ``sticker``: a small blue sticker on the spot, off its centre, turning with the pendulum;
 * ``bead``: a small pink bead on the bar, nearer the axle than the spot (it swings too).
+* ``wanderer``: a smaller pink disc wandering across the bottom of the frame on a zigzag
+  (something pink carried past), moving all the time, also while the hand hides the spot.
 
 Deterministic (seeded); 640x360 by default so a few seconds render in about a second.
 """
@@ -55,7 +57,7 @@ class FieldVideo:
 
 def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, width: int = 640, height: int = 360,
                 theta0: float = 1.2, hand_s: float = 0.0, poster: bool = False, sticker: bool = False,
-                bead: bool = False, seed: int = 0) -> FieldVideo:
+                bead: bool = False, wanderer: bool = False, seed: int = 0) -> FieldVideo:
     """Render, post-process and encode; see the module docstring for the conditions."""
     cfg = Config().replace("render", width=width, height=height, fps=fps, seconds=seconds, theta0=theta0,
                            seed=seed).render
@@ -79,6 +81,11 @@ def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, wi
             if bead:
                 bx, by = scene.project(*scene.to_world(0.55 * scene.spot_distance_m, 0.0, th))
                 cv2.circle(img, (int(round(4 * bx)), int(round(4 * by))), int(round(4 * 0.45 * radius)),
+                           tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA, shift=2)
+            if wanderer:
+                tk = float(motion.t[k])
+                wx, wy = width * (0.08 + 0.3 * tk), height * (0.9 + 0.04 * np.sin(2 * np.pi * 2.5 * tk))
+                cv2.circle(img, (int(round(4 * wx)), int(round(4 * wy))), int(round(4 * 0.6 * radius)),
                            tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA, shift=2)
             if sticker:
                 qx, qy = scene.project(*scene.to_world(scene.spot_distance_m + 0.3 * scene.spot_radius_m, 0.0, th))

@@ -73,8 +73,13 @@ def test_wrong_field_of_view_inflates_the_circle_residual(rendered_run, tmp_path
     rms = {}
     for corrected in (False, True):
         for fov in (120.0, 110.0):
-            cfg = Config().replace("lens", fov_deg=fov).replace("track", track_in_corrected=corrected)
+            # lens_check = warn: the angle stage's lens check would stop at 110 deg (its own tests:
+            # tests/test_lens_check.py); this test looks at the residual it is built on
+            cfg = (Config().replace("lens", fov_deg=fov).replace("track", track_in_corrected=corrected)
+                   .replace("angle", lens_check="warn"))
             _, angle = _run(folder, tmp_path / f"{corrected}{fov}", cfg)
+            if fov == 110.0:
+                assert angle.provenance.extra["lens_check"]["verdict"] == "mismatch"
             rms[corrected, fov] = angle.provenance.extra["circle_rms_px"]
     # measured: 0.13 -> 0.50 px on both paths (raw frames with the lens-warped template,
     # and corrected frames)

@@ -48,8 +48,40 @@ def _missing(what: str, needs: str) -> Note:
     return Note(f"No {what}: {needs} is missing in this run folder.", kind="missing")
 
 
+def lens_statement(run: RunData) -> tuple[str, Note | None]:
+    """The lens the track was corrected with, and the lens check's verdict (one line), plus a
+    note when the check found a mismatch or could not decide.
+
+    From angle.parquet's provenance (``lens``, ``lens_check``), else track.parquet's ``[lens]``.
+    """
+    angle_extra = run.extra("angle")
+    lens = angle_extra.get("lens") or run.stage_config("track").get("lens")
+    if not isinstance(lens, dict) or "projection" not in lens:
+        return "not recorded (no track.parquet)", None
+    if lens["projection"] == "none":
+        text = "none: no lens correction (a normal, rectilinear lens)"
+    else:
+        fov, fixed = D.find_number(lens, "fov_deg"), D.find_number(lens, "fixed_pixels")
+        text = (f"{lens['projection']} fisheye"
+                + (f", {fov:g}° diagonal field of view" if fov is not None else "")
+                + (f", {100 * fixed:g} % fixed pixels" if fixed is not None else ""))
+    check = angle_extra.get("lens_check")
+    if not isinstance(check, dict):
+        return text + " (not checked: no angle.parquet, or one made before the lens check)", None
+    verdict = str(check.get("verdict", ""))
+    reason = str(check.get("reason", ""))
+    text += f" — check: {verdict}"
+    if verdict == "mismatch":
+        return text, Note(f"Lens mismatch: {reason}. θ below is computed with the configured lens and is "
+                          "likely wrong by about that much; track again with the better lens.", kind="error")
+    if verdict == "undecided":
+        return text, Note(f"The lens could not be checked: {reason}.", kind="info")
+    return text + (f" ({reason})" if reason else ""), None
+
+
 def _overview(run: RunData) -> Section:
-    facts: list[tuple[str, str]] = [("run", run.name), ("folder", str(run.run_dir))]
+    lens_text, lens_note = lens_statement(run)
+    facts: list[tuple[str, str]] = [("run", run.name), ("lens", lens_text), ("folder", str(run.run_dir))]
     track = run.get("track")
     if track is not None and len(track):
         t = track["t"].to_numpy(float)
@@ -71,6 +103,8 @@ def _overview(run: RunData) -> Section:
     present = sorted(p.name for p in run.inputs)
     facts.append(("artifacts", ", ".join(present) or "none"))
     blocks: list[Any] = [Facts(tuple(facts))]
+    if lens_note is not None:
+        blocks.insert(0, lens_note)
     for p in run.problems:
         blocks.append(Note(f"Could not read: {p}", kind="error"))
     return Section("overview", "Run overview", tuple(blocks))

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -13,8 +16,37 @@ from pendtrack.errors import ConfigError, TrackingError
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.track.angle import theta_from_track
 from pendtrack.track.circle import fit_circle
+from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
+
+log = logging.getLogger(__name__)
 
 MIN_ARC_SPAN_DEG = 20.0  # a shorter arc cannot locate the axle: pass --axle
+LENS_CHECK_MODES = ("error", "warn", "off")
+
+
+def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[str, Any],
+                        track_config: Mapping[str, Any], *, ratio: float) -> LensCheck | None:
+    """The lens check (:func:`pendtrack.track.lens_check.check_lens`) of a track's ok raw positions.
+
+    The lens is the one the track stage used (its provenance's ``[lens]``), the frame size
+    that of its video; None when the track does not record them (not made by the track stage).
+    """
+    lens = track_config.get("lens")
+    video = track_extra.get("video")
+    try:
+        width, height = int(video["width"]), int(video["height"])
+        projection, fov, fixed = str(lens["projection"]), float(lens["fov_deg"]), float(lens["fixed_pixels"])
+    except (TypeError, KeyError, ValueError):
+        return None
+    return check_lens(df["x_px"].to_numpy(float)[ok], df["y_px"].to_numpy(float)[ok], width=width, height=height,
+                      projection=projection, fov_deg=fov, fixed_pixels=fixed, ratio=ratio)
+
+
+def lens_mismatch_text(check: LensCheck) -> str:
+    """One line: the mismatch and the flags that fix it."""
+    fix = suggestion_flags(check.suggestion) if check.suggestion else "another --projection/--fov"
+    return (f"lens mismatch: {check.reason}; track again with {fix} (pendtrack track/run), or set [angle] "
+            f"lens_check = \"warn\" in --config to go on")
 
 
 def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force: bool = False,
@@ -29,14 +61,18 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         Output folder (created).
     config : Config
         Uses ``[angle]``: the axle (else a robust circle fit to the ok corrected points),
-        the rest stretch that sets theta's zero.
+        the rest stretch that sets theta's zero, and the lens check: the track's circle
+        under the track's lens against no correction, the paper's fisheye and a fitted
+        field of view (:mod:`pendtrack.track.lens_check`, recorded as ``lens_check`` in the
+        provenance); a mismatch is an error (``lens_check = "error"``), a warning
+        (``"warn"``) or not looked for (``"off"``).
     force, progress : bool
         As every stage (no loop long enough for a progress bar here).
 
     Returns
     -------
     StageOutput
-        ``facts``: axle, circle RMS residual [px], zero reference.
+        ``facts``: axle, circle RMS residual [px], zero reference, lens-check verdict.
 
     Raises
     ------
@@ -44,6 +80,9 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         Missing or malformed track.
     TrackingError
         Too few ok points, or an arc too short to locate the axle.
+    ConfigError
+        Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's lens is clearly
+        not the footage's.
     """
     track = Path(track)
     out = Path(out_dir) / "angle.parquet"
@@ -55,6 +94,17 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     df = art.data
     ok = df["ok"].to_numpy(bool) & np.isfinite(df["x"].to_numpy()) & np.isfinite(df["y"].to_numpy())
     ac = config.angle
+    if ac.lens_check not in LENS_CHECK_MODES:
+        raise ConfigError(f"[angle] lens_check must be one of {', '.join(LENS_CHECK_MODES)}, got {ac.lens_check!r}")
+    if not (np.isfinite(ac.lens_ratio) and ac.lens_ratio > 1):
+        raise ConfigError(f"[angle] lens_ratio must be > 1, got {ac.lens_ratio}")
+    check = None
+    if ac.lens_check != "off":
+        check = lens_check_of_track(df, ok, art.provenance.extra, art.provenance.config, ratio=ac.lens_ratio)
+        if check is not None and check.verdict == "mismatch":
+            if ac.lens_check == "error":
+                raise ConfigError(lens_mismatch_text(check), path=track)
+            log.warning("%s: %s", track, lens_mismatch_text(check))
     circle = None
     if ac.axle:
         if len(ac.axle) != 2:
@@ -72,11 +122,16 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
                            axle=axle, rest_seconds=ac.rest_seconds, rest_omega_max=ac.rest_omega_max,
                            circle=circle)
     out_df = pd.DataFrame({"t": res.t, "theta": res.theta, "ok": res.ok})
-    extra = {"axle_source": "config" if ac.axle else "circle_fit", **res.to_dict()}
+    lens_used = art.provenance.config.get("lens")
+    extra = {"axle_source": "config" if ac.axle else "circle_fit", **res.to_dict(),
+             "lens": dict(lens_used) if isinstance(lens_used, dict) else {},
+             "lens_check": check.to_dict() if check is not None else {"verdict": "not checked", "reason": (
+                 "lens_check = off" if ac.lens_check == "off" else "the track records no lens or frame size")}}
     if circle is not None:
         extra["circle_rms_px"] = circle.rms
     write_artifact(out_df, out, "angle", provenance=Provenance(stage="angle", config=sections, inputs=inputs,
                                                                extra=extra))
     facts = {"axle": axle, "zero_reference": res.zero_reference,
-             "circle_rms_px": circle.rms if circle is not None else None}
+             "circle_rms_px": circle.rms if circle is not None else None,
+             "lens_verdict": check.verdict if check is not None else "not checked"}
     return StageOutput((out,), facts=facts)

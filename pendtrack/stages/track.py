@@ -29,6 +29,18 @@ DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.p
 DECODE_PREFETCH = 8  # decode this many frames ahead in a background thread (0: same thread)
 
 
+# flags of `track` and `run` named in the errors about the config keys they set (phrase in message -> flag)
+FLAGS = {"min_score": "--min-score", "marker colour": "--marker-color", "roi": "--roi", "field of view": "--fov",
+         "fixed_pixels": "--fixed-pixels", "projection": "--projection", "fps": "--fps"}
+
+
+def config_error(section: str, exc: Exception) -> ConfigError:
+    """``[section] <problem>`` naming the command-line flags of the keys the problem mentions."""
+    text = str(exc)
+    flags = [flag for phrase, flag in FLAGS.items() if phrase in text]
+    return ConfigError(f"[{section}] {text}" + (f" ({', '.join(flags)})" if flags else ""))
+
+
 def track_params(config: Config) -> TrackParams:
     """Core tracking parameters from the ``[track]`` section."""
     tc = config.track
@@ -39,14 +51,14 @@ def track_params(config: Config) -> TrackParams:
                            min_contrast_ratio=tc.min_contrast_ratio, acquire_step_s=tc.acquire_step_s,
                            acquire_window_s=tc.acquire_window_s, max_drift_px=tc.max_drift_px)
     except ValueError as exc:
-        raise ConfigError(f"[track] {exc}") from None
+        raise config_error("track", exc) from None
 
 
 def _fisheye(config: Config, width: int, height: int) -> Fisheye:
     try:
         return fisheye_from_config(config.lens, width=width, height=height)
     except ValueError as exc:
-        raise ConfigError(f"[lens] {exc}") from None
+        raise config_error("lens", exc) from None
 
 
 def track_dataframe(result: TrackResult, fisheye: Fisheye, *, corrected: bool) -> pd.DataFrame:
@@ -130,10 +142,12 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     try:
         colour = parse_marker_colour(config.track.marker_color)
     except ValueError as exc:
-        raise ConfigError(f"[track] {exc}") from None
+        raise config_error("track", exc) from None
     params = track_params(config)
     corrected = config.track.track_in_corrected
     vc = config.video
+    if not (np.isfinite(vc.fps) and vc.fps >= 0):
+        raise ConfigError(f"[video] fps must be 0 (the container's timestamps) or a rate > 0, got {vc.fps:g} (--fps)")
     try:
         check_time_range(vc.start, vc.end)
     except ValueError as exc:

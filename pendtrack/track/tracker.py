@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 
 from pendtrack.errors import TrackingError
+from pendtrack.track.circle import fit_circle_pratt
 from pendtrack.track.colour import MarkerColour
 from pendtrack.track.detect import Detection, marker_candidates, marker_in_roi
 from pendtrack.track.match import match_template, weighted_centroid
@@ -57,6 +58,10 @@ RADIUS_RATIO = 2.0  # ... whose radius is within this factor of its own
 MIN_RADIUS_SHARE = 0.75  # acquired only when its radius is >= this share of its median over the window
 WARP_TOLERANCE = 1e-2  # re-warp the template when an entry of the lens Jacobian changed by more than this
 TEMPLATE_REACH = 1.3  # template half-side in marker radii (+ 2 px): the marker and a rim of surroundings
+ARC_TOL_PX = 1.0  # position noise of a candidate's detections (and at least 0.1 radius) [px]
+ARC_MAX_RADIUS = 1.5  # a pendulum's arc has a radius below this many frame diagonals (its pivot is near the frame)
+ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
+ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -149,9 +154,11 @@ class TrackResult:
         How many frames needed the wide window and the whole-frame search.
     acquisition : dict
         Where and how the marker was found: ``frame``, ``t`` [s], ``row`` (its row in
-        these arrays; earlier rows are not ok), ``method`` (``roi``, ``motion``: the one
-        candidate that moved, ``single``: the only candidate, ``largest``: several and
-        none seen moving), ``candidates`` (how many in that frame).
+        these arrays; earlier rows are not ok), ``method`` (``roi``, ``motion``: the
+        largest candidate that moved, on an arc if any did, ``single``: the only
+        candidate, ``largest``: several and none seen moving), ``candidates`` (how many
+        in that frame), ``path`` (the chosen mover's path: ``arc`` or ``unclear``) and
+        ``rejected_paths`` (movers passed over as no pendulum's arc).
     drift : dict
         The evolving template against the first: ``max_px`` (largest drift measured),
         ``reanchors`` (times it was shifted back), ``limit_px``, ``alarm`` (True when the
@@ -467,7 +474,11 @@ class _Acquirer:
     marker colour, or a marker standing out in the ROI). The candidates of a search frame are told apart by what they do over
     the next ``acquire_window_s``: each is followed, search after search, to the nearest
     candidate of similar size; the marker is the one that moves (a poster of its colour
-    does not), the largest if several move together (a bead riding on it is smaller). A
+    does not) on a pendulum's arc (:func:`path_shape`: its positions lie on a circle about a
+    fixed point near the frame), the largest if several do (a bead riding on it is smaller).
+    A mover whose path is clearly no such arc (straight over a long travel, erratic: a
+    coloured object carried or walking past while a hand hides the marker) is passed over;
+    one whose path is too short or too straight to tell comes after those on an arc. A
     candidate seen smaller than ``MIN_RADIUS_SHARE`` of its median size over the window is
     partly hidden (a hand). When no candidate moves, the search moves on (a poster is all
     there is to see while a hand hides the marker); when the video ends first, the largest
@@ -489,6 +500,8 @@ class _Acquirer:
         self.ended = False
         self._cache: dict[int, list[Detection]] = {}
         self.n_searched = 0
+        self.path_shape = ""  # the chosen candidate's path over the window (see path_shape)
+        self.rejected_paths = 0  # moving candidates passed over because their path is no pendulum's arc
 
     def _next(self) -> object | None:
         if self.pending:
@@ -564,7 +577,8 @@ class _Acquirer:
             a = back[k] if k < len(back) else fr
             self.sampler.colour = det.colour
             info = {"frame": int(a.index), "t": float(a.t), "row": len(self.skipped), "method": method,
-                    "candidates": len(found), "frames_searched": self.n_searched}
+                    "candidates": len(found), "frames_searched": self.n_searched, "path": self.path_shape,
+                    "rejected_paths": self.rejected_paths}
             self._cache.clear()
             return det, tpl, info, chain(back[k:], window, self.pending, self.frames)
 
@@ -593,17 +607,26 @@ class _Acquirer:
             if fr.t - t_s >= self.params.acquire_step_s - 1e-9:
                 samples.append(self.candidates(fr))
                 t_s = fr.t
-        reach = LINK_REACH * float(np.hypot(self.sampler.height, self.sampler.width))
-        moving, still = [], []
+        diagonal = float(np.hypot(self.sampler.height, self.sampler.width))
+        reach = LINK_REACH * diagonal
+        moving: dict[str, list] = {"arc": [], "unclear": [], "not_arc": []}
+        still = []
         for cand in found:
             det = cand[0]
-            moved, radii = _follow(det, samples, reach)
+            moved, radii, path = _follow(det, samples, reach)
             if det.radius < MIN_RADIUS_SHARE * float(np.median([det.radius, *radii])):
                 continue  # partly hidden here
-            (moving if moved > max(MOVED_PX, 0.5 * det.radius) else still).append(cand)
-        if moving:
-            return max(moving, key=lambda c: c[0].radius), "motion"
+            if moved > max(MOVED_PX, 0.5 * det.radius):
+                moving[path_shape(path, marker_radius=det.radius, diagonal=diagonal)].append(cand)
+            else:
+                still.append(cand)
+        self.rejected_paths += len(moving["not_arc"])
+        for shape in ("arc", "unclear"):
+            if moving[shape]:
+                self.path_shape = shape
+                return max(moving[shape], key=lambda c: c[0].radius), "motion"
         if self.ended and not self.pending:  # no later frame to decide on
+            self.path_shape = ""
             return max(still or found, key=lambda c: c[0].radius * c[0].radius * c[0].contrast), "largest"
         return None, ""
 
@@ -617,22 +640,78 @@ class _Acquirer:
                             f"(try --marker-color, --roi or --start)")
 
 
-def _follow(det: Detection, samples: list[list[Detection]], reach: float) -> tuple[float, list[float]]:
-    """Follow a candidate through later searches: its largest distance from the start [px] and its radii."""
+def path_shape(path: np.ndarray, *, marker_radius: float, diagonal: float) -> str:
+    """Is a moving candidate's path over the acquisition window a pendulum's arc?
+
+    A pendulum's marker swings on a circle about a fixed point (the axle) near the frame:
+    the path's positions lie on a circle, within their noise, of radius between
+    :data:`ARC_MIN_RADIUS` marker radii and :data:`ARC_MAX_RADIUS` frame diagonals.
+
+    Parameters
+    ----------
+    path : ndarray, shape (n, 2)
+        Positions [px] over the window, in time order.
+    marker_radius : float
+        The candidate's radius [px].
+    diagonal : float
+        The frame's diagonal [px].
+
+    Returns
+    -------
+    str
+        ``"arc"``: curved, on such a circle within the noise (``max(ARC_TOL_PX, 0.1 radius)``);
+        ``"not_arc"``: off every circle by more than twice the noise (an erratic path), on a
+        circle too small or too large, or straight over a travel long enough that a
+        pendulum's arc would bend by more than twice the noise; ``"unclear"``: fewer than
+        :data:`ARC_MIN_POINTS` positions, or a short straight stretch.
+    """
+    p = np.asarray(path, float)
+    if p.shape[0] < ARC_MIN_POINTS:
+        return "unclear"
+    tol = max(ARC_TOL_PX, 0.1 * marker_radius)
+    r_max, r_min = ARC_MAX_RADIUS * diagonal, ARC_MIN_RADIUS * marker_radius
+    q = p - p.mean(axis=0)
+    line_rms = float(np.sqrt(max(np.linalg.eigvalsh(q.T @ q / p.shape[0])[0], 0.0)))
+    travel = float(np.max(np.hypot(*(p[:, None, :] - p[None, :, :]).transpose(2, 0, 1))))
+    if line_rms <= tol:
+        return "not_arc" if travel * travel / (8 * r_max) > 2 * tol else "unclear"
+    xc, yc, r = fit_circle_pratt(p[:, 0], p[:, 1])
+    circle_rms = float(np.sqrt(np.mean((np.hypot(p[:, 0] - xc, p[:, 1] - yc) - r) ** 2)))
+    if circle_rms <= 2 * tol and r_min <= r <= r_max:
+        return "arc"
+    return "not_arc"
+
+
+def _follow(det: Detection, samples: list[list[Detection]], reach: float) -> tuple[float, list[float], np.ndarray]:
+    """Follow a candidate through later searches: its largest distance from the start [px], its radii
+    and its positions (the start's first), shape (n, 2) [px].
+
+    Each search links the candidate of similar size nearest to the position predicted at
+    constant velocity from the last two links (the last position until there are two), so a
+    marker passing another object of its colour is not swapped for it.
+    """
     x, y = det.x, det.y
     far = 0.0
     radii = []
-    for cands in samples:
+    path = [(x, y)]
+    links = [(-1, x, y)]  # (sample index, x, y) of the linked positions
+    for k, cands in enumerate(samples):
         near = [c for c in cands if 1 / RADIUS_RATIO <= c.radius / det.radius <= RADIUS_RATIO]
         if not near:
             continue
-        c = min(near, key=lambda c: (c.x - x) ** 2 + (c.y - y) ** 2)
+        px, py = x, y
+        if len(links) >= 2:
+            (k1, x1, y1), (k2, x2, y2) = links[-2], links[-1]
+            px, py = x2 + (x2 - x1) * (k - k2) / (k2 - k1), y2 + (y2 - y1) * (k - k2) / (k2 - k1)
+        c = min(near, key=lambda c: (c.x - px) ** 2 + (c.y - py) ** 2)
         if np.hypot(c.x - x, c.y - y) > reach:
             continue
         x, y = c.x, c.y
+        links.append((k, x, y))
         radii.append(c.radius)
+        path.append((x, y))
         far = max(far, float(np.hypot(x - det.x, y - det.y)))
-    return far, radii
+    return far, radii, np.asarray(path, float)
 
 
 def track_frames(frames: Iterable, *, sampler: RawSampler, params: TrackParams, roi: tuple[int, ...] = (),
