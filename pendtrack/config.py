@@ -28,6 +28,7 @@ VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg
 LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
+LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -270,6 +271,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "angle.axle": (_sizes(0, 2, what="[] or [x, y]"),),
     "angle.rest_seconds": (_gt(0),),
     "angle.rest_omega_max": (_gt(0),),
+    "angle.lens_check": (_one_of(LENS_CHECK_MODES),),
+    "angle.lens_ratio": (_gt(1),),
     "kinematics.savgol_window_s": (_gt(0),),
     "kinematics.savgol_order": (_ge(1),),
     "kinematics.max_gap_s": (_ge(0),),

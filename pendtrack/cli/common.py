@@ -12,6 +12,7 @@ from typing import Any, TypeVar
 import click
 
 from pendtrack.config import Config, load_config
+from pendtrack.errors import ConfigError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -132,9 +133,23 @@ def axle_option(fn: F) -> F:
 
 
 def apply_flags(config: Config, section: str, **values: Any) -> Config:
-    """``config`` with the given (not None) values of one section replaced."""
+    """``config`` with the given (not None) values of one section replaced.
+
+    A value the config refuses is reported under the flag that gave it (``--window-s``), not
+    the config key (``'kinematics.savgol_window_s'``): the user typed the flag.
+    """
     given = {k: v for k, v in values.items() if v is not None}
-    return config.replace(section, **given) if given else config
+    if not given:
+        return config
+    try:
+        return config.replace(section, **given)
+    except ConfigError as exc:
+        ctx = click.get_current_context(silent=True)
+        flags = {p.name: p.opts[0] for p in ctx.command.params} if ctx is not None else {}
+        text = str(exc).removeprefix("<flags>: ")
+        for key in given:
+            text = text.replace(f"'{section}.{key}'", flags.get(key, "--" + key.replace("_", "-")))
+        raise ConfigError(text) from None
 
 
 def with_lens_and_video(config: Config, *, fov_deg: float | None, fixed_pixels: float | None,
