@@ -68,12 +68,9 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     ----------
     model : Model
         From :func:`pendtrack.models.get_model` or :func:`pendtrack.models.compose`.
-    t : ndarray
-        Sample times [s], uniformly spaced (samples may be missing or flagged).
-    theta : ndarray
-        Measured angle [rad] (in ``kinematics.parquet``: Savitzky-Golay smoothed).
-    omega : ndarray
-        Measured angular velocity [rad/s] (Savitzky-Golay derivative).
+    t, theta, omega : ndarray
+        Sample times [s] (uniformly spaced, samples may be missing), measured angle [rad] and
+        angular velocity [rad/s]: as in :class:`pendtrack.fitting.record.Record`.
     options : FitConfig, optional
         The method (``[fit]`` of the config): cost, starts, 5/4 rule, start spreads, start
         budget, growing windows, trust-region polish, profile sigmas, bootstrap; default
