@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -58,10 +59,9 @@ def main() -> None:
     print(f"{args.model}: {args.samples} samples ({args.samples / fs:.1f} s at {fs:g} Hz), {args.starts} starts, "
           f"workers={args.workers or os.cpu_count()} (cpu_count={os.cpu_count()})", flush=True)
     t0 = time.perf_counter()
-    fc = Config().fit  # the fit stage's settings: start budget, profile-likelihood errors
-    res = fit_model(model, kin.t, kin.theta, kin.omega, alpha=kin.alpha, ok=kin.ok, observation=obs,
-                    n_starts=args.starts, workers=args.workers, seed=args.seed, on_progress=tick,
-                    start_budget=fc.start_budget, profile=fc.profile)
+    options = replace(Config().fit, n_starts=args.starts)  # the fit stage's settings, the number of starts aside
+    res = fit_model(model, kin.t, kin.theta, kin.omega, options=options, alpha=kin.alpha, ok=kin.ok, observation=obs,
+                    workers=args.workers, seed=args.seed, on_progress=tick)
     wall = time.perf_counter() - t0
     print(f"wall time: {wall:.1f} s  (runtime_s {res.runtime_s:.1f} s; target <= 60 s for fractional on 2 cores)")
     print(f"converged={res.converged}  Xi2_min={res.xi2_min:.6e}  rms={res.rms * 1e3:.3f} mrad  "

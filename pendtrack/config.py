@@ -99,6 +99,8 @@ class FitConfig:
     profile: bool = True  # profile-likelihood standard errors per side (stderr_low, stderr_high)
     bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
     start_budget: int = 30  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
+    ladder: bool = True  # each start fits a growing window (three periods, doubled up to the record): no phase slips
+    trust_region_polish: bool = False  # finish the best fit by a trust-region least-squares run too (discovery: on)
     workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
 
 

@@ -16,11 +16,11 @@ import pytest
 from scipy.signal import savgol_filter
 
 from pendtrack.artifacts import FIT_JSON_KEYS
+from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
-from pendtrack.fitting import FitResult, Observation, ParamEstimate, cross_model_relations, fit_model
+from pendtrack.fitting import FitResult, Observation, ParamEstimate, build_problem, cross_model_relations, fit_model
 from pendtrack.fitting.cost import residual_vector
-from pendtrack.fitting.fitter import build_problem
-from pendtrack.fitting.multistart import draw_starts, local_fit, run_starts, window_ladder
+from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, local_fit, run_starts, window_ladder
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
 
@@ -54,6 +54,11 @@ def toy_simulate(model, params, t, *, theta0, omega0, memory_s, method):  # noqa
 
 
 TOY_TRUTH = {"Omega0": 5.0, "C1": 0.05}
+
+
+def toy_options(n_starts: int, **more) -> FitConfig:
+    """The options these tests were calibrated with: each start's budget FINAL_ITERATIONS, no profile sigmas."""
+    return FitConfig(n_starts=n_starts, start_budget=FINAL_ITERATIONS, profile=False, **more)
 
 
 def toy_data(seed: int = 0, seconds: float = 20.0, noise: float = 3e-3):
@@ -189,7 +194,7 @@ def test_starts_in_worker_processes_equal_serial_run():
 
 def test_fit_model_on_toy_gives_calibrated_result_and_json():
     t, th, om, al = toy_data(seed=7)
-    res = fit_model(ToyModel(), t, th, om, alpha=al, n_starts=3, workers=1, seed=2,
+    res = fit_model(ToyModel(), t, th, om, alpha=al, options=toy_options(3), workers=1, seed=2,
                     observation=Observation(25, 3, True), simulator=toy_simulate)
     assert res.converged, res.message
     w = res.params["Omega0"]
@@ -240,13 +245,13 @@ def test_require_converged():
 def test_too_few_samples_is_fit_error():
     t, th, om, al = toy_data(seconds=0.3)
     with pytest.raises(FitError, match="too few"):
-        fit_model(ToyModel(), t, th, om, alpha=al, n_starts=1, workers=1, simulator=toy_simulate)
+        fit_model(ToyModel(), t, th, om, alpha=al, options=toy_options(1), workers=1, simulator=toy_simulate)
 
 
 def test_every_sample_not_ok_is_fit_error():
     t, th, om, al = toy_data(seconds=5.0)
     with pytest.raises(FitError, match="not ok"):
-        fit_model(ToyModel(), t, th, om, alpha=al, ok=np.zeros(t.size, bool), n_starts=1, workers=1,
+        fit_model(ToyModel(), t, th, om, alpha=al, ok=np.zeros(t.size, bool), options=toy_options(1), workers=1,
                   simulator=toy_simulate)
 
 
@@ -256,7 +261,7 @@ def test_no_oscillation_is_fit_error():
     th = 1e-3 * rng.normal(size=t.size)  # at rest, tracking noise only
     om = savgol_filter(th, 25, 3, deriv=1, delta=1 / 120)
     with pytest.raises(FitError, match="no oscillation"):
-        fit_model(ToyModel(), t, th, om, n_starts=1, workers=1, simulator=toy_simulate)
+        fit_model(ToyModel(), t, th, om, options=toy_options(1), workers=1, simulator=toy_simulate)
 
 
 def test_window_predict_and_held_out_score_on_toy():
@@ -264,7 +269,7 @@ def test_window_predict_and_held_out_score_on_toy():
 
     t, th, om, al = toy_data(seed=3)
     obs = Observation(25, 3, True)
-    res = fit_model(ToyModel(), t, th, om, alpha=al, window=(2.0, 12.0), n_starts=2, workers=1,
+    res = fit_model(ToyModel(), t, th, om, alpha=al, window=(2.0, 12.0), options=toy_options(2), workers=1,
                     observation=obs, simulator=toy_simulate)
     assert res.window[0] >= 2.0 and res.window[1] <= 12.0
     th_m, _ = predict(res, ToyModel(), t, simulator=toy_simulate)
@@ -277,7 +282,7 @@ def test_window_predict_and_held_out_score_on_toy():
 
 def test_block_bootstrap_gives_finite_errors():
     t, th, om, al = toy_data(seed=4, seconds=10.0)
-    res = fit_model(ToyModel(), t, th, om, alpha=al, n_starts=1, workers=1, bootstrap=6,
+    res = fit_model(ToyModel(), t, th, om, alpha=al, options=toy_options(1, bootstrap=6), workers=1,
                     observation=Observation(25, 3, True), simulator=toy_simulate)
     se_b = res.params["Omega0"].stderr_bootstrap
     assert np.isfinite(se_b) and 0.1 < se_b / res.params["Omega0"].stderr < 10

@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pendtrack.config import FitConfig
 from pendtrack.fitting import Observation, fit_model
+from pendtrack.fitting.multistart import FINAL_ITERATIONS
 from pendtrack.kinematics import savgol_kinematics
 from pendtrack.models import get_model, simulate
 
@@ -29,6 +31,11 @@ NOISE = 3e-3  # [rad], the tracking noise of the issue
 THETA0 = 2.8  # released from rest near the top [rad]
 # a few starts (the stage uses 150): every start of classic and opa reaches the same minimum
 N_STARTS = {"classic": 2, "opa": 2, "fractional": 8}
+
+
+def options(n_starts: int) -> FitConfig:
+    """The recovery tests' fit: few starts, each with budget FINAL_ITERATIONS, profile-likelihood sigmas."""
+    return FitConfig(n_starts=n_starts, start_budget=FINAL_ITERATIONS, profile=True)
 
 TRUTHS = {
     # paper-like magnitudes (figs. fourparamsclassic, laserplots, paramsfractional)
@@ -52,8 +59,8 @@ def check_recovery(name: str, seed: int, *, truth: dict[str, float] | None = Non
                    fixed: dict[str, float] | None = None) -> None:
     truth = truth or TRUTHS[name]
     t, theta, omega, alpha, ok, obs = record(name, seed, truth)
-    res = fit_model(get_model(name), t, theta, omega, alpha=alpha, ok=ok, observation=obs, n_starts=N_STARTS[name],
-                    seed=seed, workers=0, fixed=fixed, profile=True)
+    res = fit_model(get_model(name), t, theta, omega, alpha=alpha, ok=ok, observation=obs,
+                    options=options(N_STARTS[name]), seed=seed, workers=0, fixed=fixed)
     assert res.converged, res.message
     truth = {k: v for k, v in truth.items() if k not in (fixed or {})}
     w = res.params["Omega0"].value
@@ -98,7 +105,7 @@ def test_profile_sigmas_equal_sandwich_where_the_cost_is_quadratic():
     # sandwich ones to < 1 %), so both sides must agree with stderr there; 10 % allows for the
     # secant through two inner fits. The fractional model's differ by 10-30 % (curved valley).
     t, theta, omega, alpha, ok, obs = record("opa", 0, TRUTHS["opa"])
-    res = fit_model(get_model("opa"), t, theta, omega, alpha=alpha, ok=ok, observation=obs, n_starts=2, seed=0,
-                    workers=0, profile=True)
+    res = fit_model(get_model("opa"), t, theta, omega, alpha=alpha, ok=ok, observation=obs,
+                    options=options(2), seed=0, workers=0)
     for name, p in res.params.items():
         assert abs(p.stderr_low / p.stderr - 1.0) < 0.1 and abs(p.stderr_high / p.stderr - 1.0) < 0.1, (name, p)

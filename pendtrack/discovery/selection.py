@@ -1,7 +1,8 @@
 """Forward selection: add the effect that earns its keep on data it was not fitted to.
 
 Each step fits every remaining candidate ``current + effect`` twice, by output error
-(:func:`pendtrack.fitting.fit_model`):
+(:func:`pendtrack.fitting.fit_model`, its refine step with the trust-region polish on:
+:func:`fit_options`):
 
 * on the **training part** (the first ``train_fraction`` of the record), warm-started from the
   current model's training fit (its parameters and initial state); the new term's parameters
@@ -60,10 +61,11 @@ import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.residuals import effective_n
 from pendtrack.discovery.result import Candidate, FitSummary
@@ -72,10 +74,6 @@ from pendtrack.parallel import process_pool
 log = logging.getLogger(__name__)
 
 TRAIN_START_SPREAD = 0.2  # random starts within +-20 % of the warm start (it is already close)
-BASELINE_START_SPREAD = 0.5  # the baseline starts from data-derived estimates only ([fit] start_spread)
-POLISH_TOL = 1e-10  # ftol/xtol of the polishing least squares: far below the statistical precision
-POLISH_NFEV = 60  # its evaluation cap, per fitted parameter
-POLISH_GAIN = 1e-6  # a polished optimum replaces the fit if its cost is lower by more than this fraction
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,71 +157,43 @@ def _simulate(model, summary: FitSummary, t: np.ndarray,  # noqa: ANN001
     return np.asarray(sim.theta), np.asarray(sim.omega)
 
 
-def _fit(task: FitTask, *, full: bool, polish: bool = True):  # noqa: ANN202
-    """One fit by :func:`pendtrack.fitting.fit_model`, then (``polish``) :func:`_polish`."""
+def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
+    """The options of discovery's fits (:func:`pendtrack.fitting.fit_model`).
+
+    Every start may take :data:`~pendtrack.fitting.multistart.FINAL_ITERATIONS` Jacobians' worth
+    (discovery runs few starts), no profile sigmas (not reported), and the refine step's
+    trust-region polish (the fitted models are sloppy: a second optimiser guards against one
+    that stopped short in a long valley). The training fit starts within
+    :data:`TRAIN_START_SPREAD` of a warm start; the whole-record fit, warm-started at a
+    training fit whose basin is known, runs that one start without the growing windows.
+    """
+    from pendtrack.fitting.multistart import FINAL_ITERATIONS
+
+    fit = FitConfig(cost=task.cost, n_starts=task.n_starts, start_budget=FINAL_ITERATIONS, profile=False,
+                    trust_region_polish=True)
+    if full:
+        fit = replace(fit, n_starts=1, ladder=False)
+    elif task.initial:
+        fit = replace(fit, start_spread=TRAIN_START_SPREAD)
+    return fit, ModelsConfig(memory_s=task.memory_s)
+
+
+def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
+    """One fit by :func:`pendtrack.fitting.fit_model` with :func:`fit_options`: the training part or the whole record."""
     from pendtrack.fitting import Observation, fit_model
 
     t_wall = time.perf_counter()
     d = task.data
     model = _model(task.baseline, task.extra)
     obs = Observation(savgol_window=d.savgol_window, savgol_order=d.savgol_order, smooth_theta=d.smoothed)
-    common = dict(alpha=d.alpha, cost=task.cost, memory_s=task.memory_s, observation=obs, workers=task.workers,
-                  seed=task.seed, source=d.source)
-    window = None if full else d.train_window
-    if full:  # warm-started at a training fit: the basin is known, no ladder, one start
-        fit = fit_model(model, d.t, d.theta, d.omega, n_starts=1, ladder=False, initial=task.initial, **common)
-    else:
-        spread = TRAIN_START_SPREAD if task.initial else BASELINE_START_SPREAD
-        fit = fit_model(model, d.t, d.theta, d.omega, window=window, n_starts=task.n_starts, start_spread=spread,
-                        initial=task.initial, **common)
-    if polish:
-        fit = _polished(model, fit, task, full=full)
+    options, model_options = fit_options(task, full=full)
+    fit = fit_model(model, d.t, d.theta, d.omega, options=options, model_options=model_options, alpha=d.alpha,
+                    window=None if full else d.train_window, observation=obs, initial=task.initial,
+                    extra_starts=() if full else task.extra_starts, seed=task.seed, workers=task.workers,
+                    source=d.source)
     log.debug("fit %s (%s): xi2 %.6g rms %.6g in %.1f s", model.name, "whole" if full else "train",
               fit.xi2_min, fit.rms, time.perf_counter() - t_wall)
     return model, fit
-
-
-def _polish(model, fit, d: AnalysisData, *, window, cost: str, observation, memory_s: float):  # noqa: ANN001, ANN202
-    """A trust-region least-squares run from a fit's optimum on the same problem.
-
-    Guards discovery against an optimiser that stops in a long valley short of the minimum
-    (the fitted models are sloppy): :func:`scipy.optimize.least_squares` (``trf``, Jacobian
-    scaling) continues from the reported optimum on the fitting package's own residuals
-    (:func:`pendtrack.fitting.build_problem`). Returns the better point as an ``initial``
-    dict, or None if it is no better.
-    """
-    from scipy.optimize import least_squares
-
-    from pendtrack.fitting import build_problem
-
-    prob = build_problem(model, d.t, d.theta, d.omega, window=window, cost=cost, omega0_hat=fit.omega0_hat,
-                         observation=observation, memory_s=memory_s, source=d.source)
-    start = {**fit.values, "theta0": fit.theta0, "omega0": fit.omega0}
-    x0 = np.clip(np.array([start[n] for n in prob.names]), prob.lower, prob.upper)
-    try:
-        res = least_squares(prob.residuals, x0, bounds=(prob.lower, prob.upper), method="trf", x_scale="jac",
-                            ftol=POLISH_TOL, xtol=POLISH_TOL, max_nfev=POLISH_NFEV * x0.size)
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
-        return None
-    if not (np.isfinite(res.cost) and 2.0 * res.cost < fit.xi2_min * (1.0 - POLISH_GAIN)):
-        return None
-    return dict(zip(prob.names, (float(v) for v in res.x)))
-
-
-def _polished(model, fit, task: FitTask, *, full: bool):  # noqa: ANN001, ANN202
-    """``fit`` after :func:`_polish`, restated through the fitting API (uncertainties, BIC, ...)."""
-    from pendtrack.fitting import Observation, fit_model
-
-    d = task.data
-    obs = Observation(savgol_window=d.savgol_window, savgol_order=d.savgol_order, smooth_theta=d.smoothed)
-    window = None if full else d.train_window
-    x = _polish(model, fit, d, window=window, cost=task.cost, observation=obs, memory_s=task.memory_s)
-    if x is None:
-        return fit
-    again = fit_model(model, d.t, d.theta, d.omega, alpha=d.alpha, window=window, cost=task.cost,
-                      memory_s=task.memory_s, observation=obs, workers=1, seed=task.seed, source=d.source,
-                      n_starts=1, ladder=False, initial=x)
-    return again if again.xi2_min <= fit.xi2_min else fit
 
 
 _FAILURES = (FloatingPointError, ValueError, ArithmeticError, np.linalg.LinAlgError)
@@ -232,34 +202,20 @@ _FAILURES = (FloatingPointError, ValueError, ArithmeticError, np.linalg.LinAlgEr
 def fit_train(task: FitTask) -> FitPair:
     """Fit ``baseline + extra`` on the training part and predict the whole record.
 
-    Runs in a worker process; every failure becomes ``FitPair.error`` (a candidate that
-    cannot be fitted is simply not kept).
+    The starts are ``task.n_starts`` around ``task.initial`` and ``task.extra_starts``; the
+    training cost alone picks the best (the held-out part is not seen). Runs in a worker
+    process; every failure becomes ``FitPair.error`` (a candidate that cannot be fitted is
+    simply not kept).
     """
     from pendtrack.errors import PendtrackError
 
     d = task.data
     nan = np.full(d.t.size, np.nan)
-    from dataclasses import replace
-
-    best, model, errors = None, None, []
-    variants = [task] + [replace(task, initial=dict(s), n_starts=1) for s in task.extra_starts]
-    best_variant = task
-    for variant in variants:  # the training cost alone picks the start: the held-out part is not seen
-        try:
-            model, fit = _fit(variant, full=False, polish=len(variants) == 1)
-        except (PendtrackError, *_FAILURES) as exc:
-            errors.append(str(exc) or type(exc).__name__)
-            continue
-        if best is None or fit.xi2_min < best.xi2_min:
-            best, best_variant = fit, variant
-    if best is None or model is None:
-        return FitPair(task.extra, None, None, nan, math.inf, nan, nan, error="; ".join(errors) or "fit failed")
-    if len(variants) > 1:  # polish the best start only
-        try:
-            best = _polished(model, best, best_variant, full=False)
-        except (PendtrackError, *_FAILURES):
-            pass
-    train = FitSummary.from_fit(best, task.extra)
+    try:
+        model, fit = _fit(task, full=False)
+    except (PendtrackError, *_FAILURES) as exc:
+        return FitPair(task.extra, None, None, nan, math.inf, nan, nan, error=str(exc) or type(exc).__name__)
+    train = FitSummary.from_fit(fit, task.extra)
     try:
         pred, _ = _simulate(model, train, d.t, task.memory_s)
         if not np.all(np.isfinite(pred)):
@@ -273,8 +229,6 @@ def fit_train(task: FitTask) -> FitPair:
 
 def fit_full(task: FitTask, pair: FitPair) -> FitPair:
     """Refit a trained model on the whole record (warm start at its training fit)."""
-    from dataclasses import replace
-
     from pendtrack.errors import PendtrackError
 
     if pair.train is None:

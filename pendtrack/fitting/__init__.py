@@ -2,7 +2,8 @@
 
 Public API::
 
-    fit_model(model, t, theta, omega, *, alpha=None, ok=None, window=None, n_starts=150, ...)
+    fit_model(model, t, theta, omega, *, options=FitConfig(), model_options=ModelsConfig(),
+              alpha=None, ok=None, window=None, observation=None, ...)
         -> FitResult                                 # arrays in; pendtrack.fitting.fitter
     predict(result, model, t) -> (theta, omega)        # the fitted model on any times
     score(result, model, t, theta, omega, *, window=...) -> WindowScore   # held-out cost
@@ -10,12 +11,16 @@ Public API::
     fit_two_cuboid(l1, omega0, sigma=None) -> TwoCuboidFit               # eq. consistencycheck
     Observation(savgol_window, savgol_order, smooth_theta)              # the data's filter
 
-Modules: :mod:`~pendtrack.fitting.cost` (Xi^2, observation), :mod:`~pendtrack.fitting.problem`
-(residuals on a window), :mod:`~pendtrack.fitting.estimates` (data-derived starts),
-:mod:`~pendtrack.fitting.multistart` (growing-window multi-start least squares, parallel),
-:mod:`~pendtrack.fitting.uncertainty` (paper's 5/4 spread, HAC sandwich, bootstrap),
-:mod:`~pendtrack.fitting.result`, :mod:`~pendtrack.fitting.cross_model`,
-:mod:`~pendtrack.fitting.two_cuboid`.
+The steps of :func:`fit_model`, each a module: :mod:`~pendtrack.fitting.estimate` ->
+:mod:`~pendtrack.fitting.search` -> :mod:`~pendtrack.fitting.refine` ->
+:mod:`~pendtrack.fitting.uncertainty` (:func:`~pendtrack.fitting.uncertainty.assess`) ->
+:mod:`~pendtrack.fitting.result` (:func:`~pendtrack.fitting.result.build_result`).
+Building blocks: :mod:`~pendtrack.fitting.record` (usable samples, grid, :func:`build_problem`),
+:mod:`~pendtrack.fitting.cost` (Xi^2, observation), :mod:`~pendtrack.fitting.problem` (residuals
+on a window), :mod:`~pendtrack.fitting.estimates` (equation-error estimates),
+:mod:`~pendtrack.fitting.multistart` (local fits over growing windows, parallel),
+:mod:`~pendtrack.fitting.polish` (profile polish and profile sigmas), :mod:`~pendtrack.fitting.lm`,
+:mod:`~pendtrack.fitting.cross_model`, :mod:`~pendtrack.fitting.two_cuboid`.
 
 Importing this package is cheap: numba and the solvers are loaded on first use.
 """
@@ -24,12 +29,14 @@ from __future__ import annotations
 
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.cross_model import CrossModel, Relation, cross_model_relations
-from pendtrack.fitting.fitter import build_problem, fit_model
+from pendtrack.fitting.fitter import check_options, fit_model
 from pendtrack.fitting.predict import WindowScore, predict, score
+from pendtrack.fitting.record import Record, build_problem, check_record
 from pendtrack.fitting.result import FitResult, ParamEstimate
 from pendtrack.fitting.two_cuboid import TwoCuboidFit, fit_two_cuboid
 
 __all__ = [
     "COSTS", "CrossModel", "FitResult", "Observation", "ParamEstimate", "Relation", "TwoCuboidFit",
-    "WindowScore", "build_problem", "cross_model_relations", "fit_model", "fit_two_cuboid", "predict", "score",
+    "Record", "WindowScore", "build_problem", "check_options", "check_record", "cross_model_relations", "fit_model",
+    "fit_two_cuboid", "predict", "score",
 ]

@@ -107,10 +107,10 @@ def draw_starts(center: np.ndarray, half_width: np.ndarray, lower: np.ndarray, u
     u = rng.uniform(size=(n, center.size))
     starts = lo + u * (hi - lo)
     starts[0] = center
-    return _inside(starts, lower, upper)
+    return inside_bounds(starts, lower, upper)
 
 
-def _inside(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+def inside_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Move points a hair inside the bounds (``trf`` needs strictly feasible starts)."""
     span = np.where(np.isfinite(upper - lower), upper - lower, 1.0)
     eps = 1e-9 * np.maximum(span, 1.0)
@@ -204,7 +204,7 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
     -------
     StartOutcome
     """
-    x = _inside(np.asarray(x0, dtype=float), problem.lower, problem.upper)
+    x = inside_bounds(np.asarray(x0, dtype=float), problem.lower, problem.upper)
     p = x.size
     calls = 0
     tracker = None

@@ -16,7 +16,7 @@ import numpy as np
 
 from pendtrack.errors import FitError
 from pendtrack.fitting.cost import Observation
-from pendtrack.fitting.fitter import GRID_TOL, _interior
+from pendtrack.fitting.record import GRID_TOL, interior
 from pendtrack.fitting.problem import STATE_NAMES, FitProblem, Simulator
 from pendtrack.fitting.result import FitResult
 
@@ -166,7 +166,7 @@ def score(result: FitResult, model: Any, t: np.ndarray, theta: np.ndarray, omega
     if np.any(np.abs(x - k) > GRID_TOL):
         raise FitError("time stamps are not on the fit's uniform grid")
     n_grid = int(k.max()) + 1 + obs.trim
-    keep = _interior(k, n_grid, obs.trim) if obs.trim else np.ones(k.size, bool)
+    keep = interior(k, n_grid, obs.trim) if obs.trim else np.ones(k.size, bool)
     if not keep.any():
         raise FitError("no sample left to score after the filter's edges")
     prob = _problem(result, model, t_start, step, n_grid, k[keep], theta[use][keep], omega[use][keep], obs,

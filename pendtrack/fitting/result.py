@@ -24,11 +24,18 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pendtrack.errors import FitError
+
+if TYPE_CHECKING:
+    from pendtrack.config import FitConfig, ModelsConfig
+    from pendtrack.fitting.estimate import Setup
+    from pendtrack.fitting.multistart import StartOutcome
+    from pendtrack.fitting.search import Search
+    from pendtrack.fitting.uncertainty import Uncertainty
 
 STATE_NAMES = ("theta0", "omega0")
 
@@ -236,3 +243,81 @@ class FitResult:
             "start_costs": [_num(c) for c in np.asarray(self.start_costs, dtype=float)],
             "message": self.message,
         }
+
+
+def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertainty, *, options: FitConfig,
+                 model_options: ModelsConfig, seed: int, runtime_s: float) -> FitResult:
+    """The :class:`FitResult` of the refined best fit (step 5 of a fit).
+
+    Adds what the steps before did not compute: rms, AIC/BIC (module docstring) and the
+    convergence verdict -- the best start ended on a convergence test, the covariance is finite
+    and the model follows the oscillation (rms below half the angle's standard deviation).
+
+    Parameters
+    ----------
+    setup, found, best, unc
+        The outputs of the estimate, search, refine and uncertainty steps.
+    options : FitConfig
+        Uses ``cost`` and ``accept_ratio`` (recorded).
+    model_options : ModelsConfig
+        The memory used (recorded).
+    seed : int
+        Seed of the start draws (recorded).
+    runtime_s : float
+        Wall time of the fit [s].
+    """
+    problem = setup.problem
+    model = problem.model
+    names = problem.names
+    x = best.x
+    theta_m, _ = problem.model_at_data(x)
+    rms = float(np.sqrt(np.mean((problem.theta - theta_m) ** 2)))
+    n = problem.n
+    k = x.size
+    xi2 = float(best.cost)
+    aic = n * math.log(xi2) + 2 * k if xi2 > 0 else -math.inf
+    bic = n * math.log(xi2) + k * math.log(n) if xi2 > 0 else -math.inf
+    follows = rms <= 0.5 * float(np.std(problem.theta))
+    cov_ok = bool(np.all(np.isfinite(unc.stderr)))
+    converged = bool(best.success and cov_ok and follows)
+    reasons = []
+    if not best.success:
+        reasons.append(f"optimiser: {best.message}")
+    if not cov_ok:
+        reasons.append("singular Jacobian (a parameter is not determined by the data)")
+    if not follows:
+        reasons.append(f"the model does not follow the oscillation (rms {rms:.3g} rad)")
+    notes = []
+    if not unc.reliable and cov_ok:
+        notes.append(f"standard errors unreliable: they change by a factor {math.exp(unc.step_spread):.2g} with the "
+                     "finite-difference step (the solver is not smooth in the parameters)")
+    start_costs = found.costs.copy()
+    start_costs[best.index] = best.cost if np.isfinite(best.cost) else np.inf  # the refined best
+
+    values = problem.full(x)
+    fitted = dict(zip(names, range(k)))
+
+    def pe(name: str) -> ParamEstimate:
+        if name not in fitted:
+            return ParamEstimate(value=values[name], stderr=0.0, u_paper=0.0, u_region=0.0, stderr_naive=0.0,
+                                 estimate=setup.estimates.get(name, math.nan), fixed=True)
+        j = fitted[name]
+        return ParamEstimate(value=float(x[j]), stderr=float(unc.stderr[j]), u_paper=float(unc.u_paper[j]),
+                             u_region=float(unc.u_region[j]), stderr_naive=float(unc.stderr_naive[j]),
+                             stderr_bootstrap=float(unc.stderr_bootstrap[j]), stderr_low=float(unc.stderr_low[j]),
+                             stderr_high=float(unc.stderr_high[j]),
+                             estimate=float(setup.estimates.get(name, math.nan)))
+
+    return FitResult(
+        model=str(model.name),
+        params={nm: pe(nm) for nm in model.param_names},
+        initial_state={nm: pe(nm) for nm in STATE_NAMES},
+        xi2_min=xi2, rms=rms, aic=aic, bic=bic, n=n, converged=converged,
+        runtime_s=float(runtime_s), seed=int(seed), cost=options.cost,
+        window=(problem.t_start, float(problem.t[-1])), omega0_hat=setup.summary.omega0_hat,
+        n_starts=len(found.outcomes), n_accepted=unc.n_accepted, accept_ratio=float(options.accept_ratio),
+        hac_lag=unc.hac_lag, covariance=unc.covariance, fitted_names=names, start_costs=start_costs,
+        memory_s=float(model_options.memory_s), full_history=bool(model_options.full_history),
+        message="; ".join(reasons + notes) if reasons else "; ".join([best.message] + notes),
+        stderr_reliable=unc.reliable,
+    )

@@ -20,18 +20,33 @@ Three numbers per parameter:
     ~25 samples; a slightly wrong model leaves residuals at the pendulum's period), so the
     textbook ``s^2 (J^T J)^-1`` would be too small by a large factor.
 
-Optionally :func:`block_residual_bootstrap` refits data rebuilt as best-fit model plus moving
-blocks of the residuals.
+Optionally the profile-likelihood sigmas on each side (:func:`pendtrack.fitting.polish.profile_sigmas`)
+and a moving-block bootstrap (:func:`bootstrap_problems`: refits of data rebuilt as best-fit
+model plus moving blocks of the residuals).
+
+:func:`assess` is step 4 of a fit, *uncertainty*: all of these at the refined best fit, plus a
+smoothness check of the solver (the sandwich recomputed with 10x larger finite-difference steps).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pendtrack.config import FitConfig
 from pendtrack.fitting.cost import channels
-from pendtrack.fitting.problem import FitProblem
+from pendtrack.fitting.multistart import StartOutcome, run_tasks
+from pendtrack.fitting.polish import profile_sigmas
+from pendtrack.fitting.problem import FD_REL, STATE_NAMES, FitProblem
+
+if TYPE_CHECKING:
+    from pendtrack.fitting.search import Search
+
+SMOOTH_RATIO = 1.3  # the sandwich may change by this factor when the finite-difference steps grow 10x
 
 
 def paper_uncertainty(xs: np.ndarray, costs: np.ndarray, accept_ratio: float) -> tuple[np.ndarray, np.ndarray]:
@@ -202,3 +217,108 @@ def stderr_from_cov(cov: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         return np.where(d > 0, np.sqrt(np.abs(d)), np.nan)
 
+
+
+@dataclass(frozen=True, eq=False)
+class Uncertainty:
+    """Every uncertainty of a best fit (arrays in ``problem.names`` order, parameter units).
+
+    Attributes
+    ----------
+    covariance : ndarray
+        Sandwich covariance of the fitted vector.
+    hac_lag : int
+        Its Bartlett lag [samples].
+    stderr, stderr_naive, u_paper, u_region : ndarray
+        Sandwich, textbook, paper's 5/4 spread, 5/4-region half-width.
+    n_accepted : int
+        Starts within ``accept_ratio`` of the minimum (before the refine step).
+    stderr_low, stderr_high, stderr_bootstrap : ndarray
+        Profile-likelihood sigmas per side and the bootstrap one (NaN where not computed).
+    step_spread : float
+        Largest ``|ln|`` ratio of the sandwich standard errors with 10x larger finite-difference
+        steps to the ordinary ones (inf if not finite) [1].
+    """
+
+    covariance: np.ndarray
+    hac_lag: int
+    stderr: np.ndarray
+    stderr_naive: np.ndarray
+    u_paper: np.ndarray
+    u_region: np.ndarray
+    n_accepted: int
+    stderr_low: np.ndarray
+    stderr_high: np.ndarray
+    stderr_bootstrap: np.ndarray
+    step_spread: float
+
+    @property
+    def reliable(self) -> bool:
+        """The standard errors do not depend on the finite-difference step (a smooth solver)."""
+        return bool(self.step_spread <= math.log(SMOOTH_RATIO))
+
+
+def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: FitConfig, seed: int, workers: int,
+           on_progress: Callable[[int], None] | None = None) -> Uncertainty:
+    """The uncertainties of the refined best fit (step 4 of a fit).
+
+    Parameters
+    ----------
+    problem : FitProblem
+        The whole-window problem.
+    best : StartOutcome
+        The refined best fit.
+    found : Search
+        The starts (their end points and costs give ``u_paper``).
+    options : FitConfig
+        Uses ``accept_ratio``, ``profile`` and ``bootstrap``.
+    seed : int
+        The bootstrap's seed is ``seed + 1``.
+    workers : int
+        Processes for the bootstrap refits.
+    on_progress : callable, optional
+        Called with 1 after each bootstrap refit.
+    """
+    x = best.x
+    u_paper, accepted = paper_uncertainty(found.xs, found.costs, options.accept_ratio)
+    r = problem.residuals(x)
+    jac = problem.jacobian(x, central=True)
+    cov, lag = hac_covariance(jac, r, problem.n)
+    # smoothness check: the sandwich of the parameters inside their bounds, with 10x larger steps,
+    # must agree (it does for smooth solvers; a solver that is rough in the parameters makes
+    # local standard errors mean little)
+    inner = (x > problem.lower) & (x < problem.upper)
+    step_spread = 0.0
+    if inner.any():
+        se_in, _ = hac_covariance(jac[:, inner], r, problem.n, lag=lag)
+        wide = problem.jacobian(x, central=True, rel=10 * FD_REL)
+        se_wide, _ = hac_covariance(wide[:, inner], r, problem.n, lag=lag)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.abs(np.log(stderr_from_cov(se_wide) / stderr_from_cov(se_in)))
+        step_spread = float(np.max(ratio)) if np.all(np.isfinite(ratio)) else math.inf
+    se_naive = stderr_from_cov(naive_covariance(jac, r))
+    nan = np.full(x.size, np.nan)
+    se_low, se_high = nan, nan
+    if options.profile:
+        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive,
+                                         [nm for nm in problem.names if nm not in STATE_NAMES])
+    se_boot = nan
+    if options.bootstrap > 0:
+        block = max(lag, problem.observation.savgol_window, 1)
+        se_boot = _bootstrap(problem, x, options.bootstrap, block, seed, workers, on_progress)
+    return Uncertainty(covariance=cov, hac_lag=int(lag), stderr=stderr_from_cov(cov), stderr_naive=se_naive,
+                       u_paper=u_paper, u_region=region_halfwidth(jac, best.cost, options.accept_ratio),
+                       n_accepted=int(accepted.sum()), stderr_low=se_low, stderr_high=se_high,
+                       stderr_bootstrap=se_boot, step_spread=step_spread)
+
+
+def _bootstrap(problem: FitProblem, x: np.ndarray, n_boot: int, block: int, seed: int, workers: int,
+               on_progress: Callable[[int], None] | None) -> np.ndarray:
+    """Standard deviation of block-bootstrap refits started at the best fit."""
+    problems = bootstrap_problems(problem, x, n_boot, block, seed + 1)
+    tasks = [(p, x, (problem.t_end,)) for p in problems]
+    outs = run_tasks(tasks, workers=workers, on_progress=on_progress)
+    xb = np.array([o.x for o in outs if np.isfinite(o.cost)])
+    if xb.shape[0] < 2:
+        return np.full(x.size, np.nan)
+    return xb.std(axis=0, ddof=1)

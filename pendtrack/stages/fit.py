@@ -102,8 +102,8 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     out_dir : path
         Output folder (created).
     config : Config
-        Uses ``[fit]`` (cost, starts, 5/4 rule, spreads, seed, profile, bootstrap, workers) and
-        ``[models]`` (memory).
+        Uses ``[fit]`` (every option of the fit: :func:`pendtrack.fitting.fit_model`'s ``options``)
+        and ``[models]`` (memory).
     models : tuple of str, optional
         Model names (registry names); default ``config.fit.models``.
     force : bool
@@ -127,8 +127,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     FitError
         Too few samples, none usable, no oscillation.
     """
-    from pendtrack.fitting import cross_model_relations, fit_model, predict
-    from pendtrack.fitting.fitter import check_record
+    from pendtrack.fitting import check_record, cross_model_relations, fit_model, predict
     from pendtrack.fitting.result import _num
     from pendtrack.models import get_model
 
@@ -161,19 +160,14 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     if t.size == 0:
         raise FitError("the kinematics file has no samples", path=kinematics)
     obs = _observation(art)
-    fc = config.fit
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=str(kinematics))  # fail before any progress bar
     results = {}
     for name in names:
         model = model_objs[name]
-        with progress_bar(fc.n_starts, f"fit {name}", enabled=progress) as advance:
-            results[name] = fit_model(
-                model, t, theta, omega, alpha=alpha, ok=ok, cost=fc.cost, n_starts=fc.n_starts,
-                accept_ratio=fc.accept_ratio, start_spread=fc.start_spread, omega0_spread=fc.omega0_spread,
-                seed=fc.seed, workers=fc.workers, profile=fc.profile, bootstrap=fc.bootstrap,
-                start_budget=fc.start_budget,
-                memory_s=config.models.memory_s, full_history=config.models.full_history, observation=obs,
-                on_progress=advance, source=str(kinematics))
+        with progress_bar(config.fit.n_starts, f"fit {name}", enabled=progress) as advance:
+            results[name] = fit_model(model, t, theta, omega, options=config.fit, model_options=config.models,
+                                      alpha=alpha, ok=ok, observation=obs, on_progress=advance,
+                                      source=str(kinematics))
 
     records = {n: r.to_dict() for n, r in results.items()}
     converged = [n for n in names if results[n].converged]

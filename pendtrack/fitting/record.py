@@ -1,0 +1,199 @@
+"""The record a fit sees: usable samples, checks, and their :class:`FitProblem` on the simulation grid.
+
+Pure functions of arrays. :class:`Record` bundles what the data are (times, angle, angular
+velocity, optional acceleration and ok flags, the fit window, the filter that made them);
+:func:`build_problem` maps its usable samples onto the uniform simulation grid;
+:func:`check_record` runs the checks a fit makes before any fitting, alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pendtrack.errors import FitError
+from pendtrack.fitting.cost import Observation
+from pendtrack.fitting.estimates import DataSummary, summarize
+from pendtrack.fitting.problem import FitProblem, Simulator, parameter_bounds
+
+GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
+
+
+@dataclass(frozen=True, eq=False)
+class Record:
+    """The data of one fit.
+
+    Attributes
+    ----------
+    t : ndarray
+        Sample times [s], uniformly spaced (samples may be missing or flagged).
+    theta : ndarray
+        Measured angle [rad] (in ``kinematics.parquet``: Savitzky-Golay smoothed).
+    omega : ndarray
+        Measured angular velocity [rad/s] (Savitzky-Golay derivative).
+    alpha : ndarray or None
+        Measured angular acceleration [rad/s^2], used only for the estimates; None:
+        ``gradient(omega, t)``.
+    ok : ndarray of bool or None
+        Usable samples (None: every finite one).
+    window : (float, float) or None
+        Only samples with ``window[0] <= t <= window[1]`` enter the fit [s].
+    observation : Observation
+        How the data were filtered (the model is filtered alike).
+    source : str
+        Name of the data in error messages.
+    """
+
+    t: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray | None = None
+    ok: np.ndarray | None = None
+    window: tuple[float, float] | None = None
+    observation: Observation = field(default_factory=Observation)
+    source: str = "the data"
+
+    def __post_init__(self) -> None:
+        for name in ("t", "theta", "omega"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
+        if self.alpha is not None:
+            object.__setattr__(self, "alpha", np.asarray(self.alpha, dtype=float))
+        elif self.t.shape == self.omega.shape and self.t.ndim == 1:  # else usable() names the problem
+            object.__setattr__(self, "alpha", np.gradient(self.omega, self.t))
+
+    def usable(self) -> np.ndarray:
+        """Mask of the samples that enter the fit: finite (alpha too), ok, inside the window."""
+        mask = usable_mask(self.t, self.theta, self.omega, self.ok, self.window, self.source)
+        return mask & np.isfinite(np.asarray(self.alpha, dtype=float))
+
+    def summary(self, *, bias_corrected: bool = True) -> DataSummary:
+        """Model-free facts of the usable samples (:func:`pendtrack.fitting.estimates.summarize`).
+
+        With ``bias_corrected`` the Omega0 estimate is corrected for the record's
+        Savitzky-Golay filter (``observation``).
+        """
+        mask = self.usable()
+        moments = None
+        obs = self.observation
+        if bias_corrected and obs.savgol_window:
+            from pendtrack.kinematics.analysis import savgol_bias_moments
+
+            h_data = float(np.median(np.diff(self.t[mask]))) if mask.sum() > 1 else 1.0
+            moments = savgol_bias_moments(obs.savgol_window, obs.savgol_order, h_data)
+        return summarize(self.t[mask], self.theta[mask], self.omega[mask], self.alpha[mask], sg_moments=moments,
+                         source=self.source)
+
+
+def usable_mask(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, ok: np.ndarray | None,
+                window: tuple[float, float] | None, source: str) -> np.ndarray:
+    """Finite, ok samples inside ``window``; FitError if there are none or the shapes disagree."""
+    if not (t.shape == theta.shape == omega.shape) or t.ndim != 1:
+        raise FitError(f"t, theta and omega must be 1-D arrays of one length, got {t.shape}, {theta.shape}, "
+                       f"{omega.shape}", path=source)
+    mask = np.isfinite(t) & np.isfinite(theta) & np.isfinite(omega)
+    if ok is not None:
+        ok = np.asarray(ok, dtype=bool)
+        if ok.shape != t.shape:
+            raise FitError(f"ok has shape {ok.shape}, expected {t.shape}", path=source)
+        if not ok.any():
+            raise FitError("no usable samples: every sample is flagged not ok", path=source)
+        mask &= ok
+    if window is not None:
+        a, b = window
+        mask &= (t >= a) & (t <= b)
+    if not mask.any():
+        raise FitError("no usable samples in the fit window", path=source)
+    return mask
+
+
+def grid_index(t: np.ndarray, h: float, source: str) -> np.ndarray:
+    """Grid index of each time ``t`` on the grid ``t[0] + k h``; FitError if they are not on one."""
+    k = np.rint((t - t[0]) / h).astype(np.int64)
+    dev = np.max(np.abs(t - t[0] - k * h)) if t.size else 0.0
+    if dev > GRID_TOL * h or np.any(np.diff(k) <= 0):
+        raise FitError(f"time stamps are not on a uniform grid (off by up to {dev:.3g} s with step {h:.6g} s)",
+                       path=source)
+    return k
+
+
+def interior(index: np.ndarray, n_grid: int, trim: int) -> np.ndarray:
+    """Samples whose filter window lies on present samples only (no gap, no window edge)."""
+    if trim == 0:
+        return np.ones(index.size, bool)
+    present = np.zeros(n_grid, np.int64)
+    present[index] = 1
+    csum = np.concatenate(([0], np.cumsum(present)))
+    lo = index - trim
+    hi = index + trim + 1
+    inside = (lo >= 0) & (hi <= n_grid)
+    full = np.zeros(index.size, bool)
+    full[inside] = (csum[hi[inside]] - csum[lo[inside]]) == 2 * trim + 1
+    return full
+
+
+def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *, ok: np.ndarray | None = None,
+                  window: tuple[float, float] | None = None, cost: str = "xi2", omega0_hat: float,
+                  observation: Observation | None = None, memory_s: float = 100 / 120,
+                  full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
+                  source: str = "the data") -> FitProblem:
+    """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
+
+    Parameters
+    ----------
+    model : Model
+    t, theta, omega, ok, window, observation, source
+        As in :class:`Record`.
+    cost : {"xi2", "theta"}
+    omega0_hat : float
+        Fixes the A_omega scale of Xi^2 [rad/s].
+    memory_s : float
+        Grunwald-Letnikov memory [s]; ``full_history``: the sum over the whole record.
+    simulator, method
+        As in :func:`pendtrack.fitting.fit_model`.
+    """
+    t = np.asarray(t, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    omega = np.asarray(omega, dtype=float)
+    mask = usable_mask(t, theta, omega, ok, window, source)
+    obs = observation or Observation()
+    h = float(np.median(np.diff(t[np.isfinite(t)])))
+    tu = t[mask]
+    index = grid_index(tu, h, source)
+    n_grid = int(index[-1]) + 1
+    keep = interior(index, n_grid, obs.trim)
+    lower, upper = parameter_bounds(model, float(tu[0]))
+    th_init = float(theta[mask][0])
+    om_init = float(omega[mask][0])
+    lower = np.concatenate((lower, [th_init - 1.0, om_init - 2.0 * omega0_hat]))
+    upper = np.concatenate((upper, [th_init + 1.0, om_init + 2.0 * omega0_hat]))
+    return FitProblem(model=model, t_start=float(tu[0]), h=h, n_grid=n_grid, index=index[keep],
+                      theta=theta[mask][keep], omega=omega[mask][keep], cost=cost,
+                      omega_scale=1.0 / (2.0 * omega0_hat), observation=obs, memory_s=float(memory_s),
+                      method=method, lower=lower, upper=upper, simulator=simulator, full_history=full_history)
+
+
+def uniform_series(problem: FitProblem, t: np.ndarray, series: list[np.ndarray],
+                   mask: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    """Series on the whole simulation grid, gaps filled by linear interpolation; and which points are data."""
+    grid = problem.grid()
+    tu = t[mask]
+    filled = [np.interp(grid, tu, s[mask]) for s in series]
+    present = np.zeros(grid.size, bool)
+    present[grid_index(tu, problem.h, "the data")] = True
+    return grid, filled, present
+
+
+def check_record(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *, alpha: np.ndarray | None = None,
+                 ok: np.ndarray | None = None, window: tuple[float, float] | None = None,
+                 source: str = "the data") -> DataSummary:
+    """The checks :func:`pendtrack.fitting.fit_model` makes before any fitting, alone (cheap).
+
+    Raises
+    ------
+    FitError
+        The record cannot support a fit (no usable sample, too few, no oscillation).
+    """
+    rec = Record(t, theta, omega, alpha=alpha, ok=ok, window=window, source=source)
+    return rec.summary(bias_corrected=False)

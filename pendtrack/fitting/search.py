@@ -1,0 +1,83 @@
+"""Step 2 of a fit, *search*: seeded starts around the estimates, each a growing-window local fit.
+
+:func:`search` draws ``n_starts`` starts (:func:`pendtrack.fitting.multistart.draw_starts`;
+start 0 is the estimate itself), adds any complete start vectors the caller gives (a warm
+start from an earlier model, say), and runs a local least-squares fit from each over the
+growing-window ladder (:func:`pendtrack.fitting.multistart.window_ladder`: Omega0 and the
+phase are pinned on three periods before the long record is seen), in worker processes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendtrack.config import FitConfig
+from pendtrack.errors import FitError
+from pendtrack.fitting.estimate import Setup
+from pendtrack.fitting.multistart import StartOutcome, draw_starts, inside_bounds, run_starts, window_ladder
+
+
+@dataclass(frozen=True, eq=False)
+class Search:
+    """Where every start ended.
+
+    Attributes
+    ----------
+    outcomes : list of StartOutcome
+        One per start, in start order.
+    xs : ndarray, shape (n_starts, p)
+        Final fitted vectors.
+    costs : ndarray
+        Final costs on the whole window (non-finite ones as inf).
+    best : StartOutcome
+        The start with the lowest cost.
+    """
+
+    outcomes: list[StartOutcome]
+    xs: np.ndarray
+    costs: np.ndarray
+    best: StartOutcome
+
+
+def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
+           extra_starts: Sequence[Mapping[str, float]] = (),
+           on_progress: Callable[[int], None] | None = None) -> Search:
+    """Multi-start growing-window least squares from the start ranges of ``setup`` (step 2 of a fit).
+
+    Parameters
+    ----------
+    setup : Setup
+        From :func:`pendtrack.fitting.estimate.estimate`.
+    options : FitConfig
+        Uses ``n_starts``, ``ladder`` and ``start_budget``.
+    seed : int
+        Seed of the start draws.
+    workers : int
+        Processes; 0 = all cores, 1 = this process.
+    extra_starts : sequence of mapping
+        Further starts after the drawn ones, each a mapping of fitted names to values (names
+        left out take the centre's value).
+    on_progress : callable, optional
+        Called with 1 after each start.
+    """
+    problem = setup.problem
+    names = problem.names
+    starts = draw_starts(setup.center, setup.half_widths, problem.lower, problem.upper, options.n_starts, seed)
+    if extra_starts:
+        rows = []
+        for start in extra_starts:
+            unknown = [k for k in start if k not in names and k not in problem.fixed]
+            if unknown:
+                raise FitError(f"start value for unknown parameter '{unknown[0]}' of model '{problem.model.name}'")
+            rows.append([float(start.get(n, c)) for n, c in zip(names, setup.center)])
+        starts = np.vstack((starts, inside_bounds(np.array(rows), problem.lower, problem.upper)))
+    ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end) if options.ladder
+            else (problem.t_end,))
+    outcomes = run_starts(problem, starts, ends, workers=workers, max_nfev=options.start_budget,
+                          on_progress=on_progress)
+    xs = np.array([o.x for o in outcomes])
+    costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])
+    return Search(outcomes=outcomes, xs=xs, costs=costs, best=outcomes[int(np.argmin(costs))])
