@@ -12,7 +12,7 @@ from pendtrack.cli.common import CommonArgs, common_options
 @click.command("kinematics")
 @click.argument("angle_file", metavar="ANGLE", type=click.Path(dir_okay=False))
 @click.option("--window-s", "savgol_window_s", type=float, default=None,
-              help="Savitzky-Golay window [s] (paper: 25 frames at 120 fps = 0.2083).")
+              help="Savitzky-Golay window [s] (config [kinematics] savgol_window_s; paper: 25 frames at 120 fps).")
 @click.option("--order", "savgol_order", type=int, default=None, help="Savitzky-Golay polynomial order (3).")
 @click.option("--max-gap-s", type=float, default=None, help="Bridge gaps of not-ok samples up to this long [s] (0.05).")
 @click.option("--min-segment-s", type=float, default=None, help="Drop segments shorter than this [s] (1.0).")

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from pendtrack.config import MEMORY_S
 from pendtrack.errors import FitError
 from pendtrack.fitting.cost import Observation
 from pendtrack.fitting.estimates import DataSummary, summarize
@@ -135,7 +136,7 @@ def interior(index: np.ndarray, n_grid: int, trim: int) -> np.ndarray:
 
 def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *, ok: np.ndarray | None = None,
                   window: tuple[float, float] | None = None, cost: str = "xi2", omega0_hat: float,
-                  observation: Observation | None = None, memory_s: float = 100 / 120,
+                  observation: Observation | None = None, memory_s: float = MEMORY_S,
                   full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
                   source: str = "the data") -> FitProblem:
     """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
