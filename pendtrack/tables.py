@@ -472,7 +472,7 @@ def _read_text(path: Path, spec: TableSpec) -> dict[str, Any]:
     width = len(_split(lines[0][1])) if lines else 2
     if spec.columns is not None:
         names = list(spec.columns)
-        if len(names) != width:
+        if lines and len(names) != width:
             raise ConfigError(f"--columns names {len(names)} columns, the table has {width} (first data line "
                               f"{lines[0][0]}): add _ for each column to ignore")
         cols = [parse_column_name(n) for n in names]
