@@ -16,6 +16,7 @@ from pendtrack.discovery.residuals import effective_n, noise_sigma, order_spectr
 from pendtrack.discovery.selection import heldout_test
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.kinematics import delta_alpha, turning_points
+from pendtrack.tables import TableSpec
 
 H = 1 / 60
 W0 = 2 * math.pi  # 1 Hz oscillation
@@ -34,7 +35,7 @@ def test_reads_whitespace_table_ignoring_extra_columns_and_comments(tmp_path):
     t = np.arange(200) * 0.05
     rows = "\n".join(f"{a} {b} 99.0" for a, b in zip(t, np.sin(t)))
     p.write_text("# a comment\n\n" + rows + "\n")
-    s = read_angle_series(p)
+    s = read_angle_series(p, table=TableSpec(columns=("t", "theta", "_")))  # a headerless third column needs naming
     assert s.n == 200 and s.kind == "table" and not s.smoothed
     np.testing.assert_allclose(s.theta, np.sin(t))
     assert s.rate_hz == pytest.approx(20.0)

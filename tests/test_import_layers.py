@@ -17,7 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendtrack"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("pendtrack", "errors", "config", "progress", "apparatus"),
     ("parallel",),
-    ("artifacts", "lens", "video"),
+    ("artifacts", "tables", "lens", "video"),
     ("models",),
     ("kinematics",),
     ("track", "render"),

@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from pendtrack.cli.common import CommonArgs, common_options
+from pendtrack.cli.kinematics_cmd import table_options, table_spec
 
 
 def _fmt(x: Any, spec: str) -> str:
@@ -16,6 +17,7 @@ def _fmt(x: Any, spec: str) -> str:
 
 @click.command("fit")
 @click.argument("kinematics_file", metavar="KINEMATICS", type=click.Path(dir_okay=False))
+@table_options
 @click.option("--model", "models", multiple=True,
               help="Model to fit (repeat for several): standard, classic, opa, fractional, inertial. "
                    "Default: [fit] models of the config (classic, opa, fractional).")
@@ -26,8 +28,13 @@ def _fmt(x: Any, spec: str) -> str:
 @click.option("--workers", type=int, default=None, help="Processes for the starts; 0 = all cores.")
 @common_options()
 def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_starts: int | None, seed: int | None,
-        workers: int | None, common: CommonArgs) -> None:
-    """Fit physical models to KINEMATICS (kinematics.parquet) -> OUT/fit.json, fit_<model>.json, fit.parquet.
+        workers: int | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
+        common: CommonArgs) -> None:
+    """Fit physical models to KINEMATICS -> OUT/fit.json, fit_<model>.json, fit.parquet.
+
+    KINEMATICS is kinematics.parquet, or anything `pendtrack kinematics` reads (angle.parquet,
+    a Parquet file or a CSV/whitespace table of t, theta or t, x, y), differentiated first with
+    the [kinematics] settings.
 
     Exits 1 (after writing the files) if a fit did not converge.
     """
@@ -36,8 +43,8 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     values = {"cost": cost, "n_starts": n_starts, "seed": seed, "workers": workers}
     given = {k: v for k, v in values.items() if v is not None}
     config = common.config.replace("fit", **given) if given else common.config
-    res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None, force=common.force,
-                    progress=common.progress)
+    res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
+                    table=table_spec(columns, pivot), force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")
     for name, f in (res.facts.get("models") or {}).items():

@@ -1,16 +1,51 @@
-"""`pendtrack kinematics ANGLE --out DIR`."""
+"""`pendtrack kinematics ANGLE --out DIR`, and the table flags it shares with `fit` and `discover`."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import click
 
 from pendtrack.cli.common import CommonArgs, common_options
 
+F = TypeVar("F", bound=Callable[..., Any])
+
+def _columns(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[str, ...] | None:
+    from pendtrack.errors import PendtrackError
+    from pendtrack.tables import parse_columns
+
+    if value is None:
+        return None
+    try:
+        return parse_columns(value)
+    except PendtrackError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def table_options(fn: F) -> F:
+    """``--columns`` and ``--pivot`` (:class:`pendtrack.tables.TableSpec`): keywords ``columns, pivot``."""
+    fn = click.option("--pivot", type=float, nargs=2, default=None, metavar="X Y",
+                      help="Pivot of a t, x, y table, in its units (x right, y up; a column y_down points down). "
+                           "Default: the centre of a robust circle fit to the path.")(fn)
+    return click.option("--columns", callback=_columns, default=None, metavar="NAMES",
+                        help="What a table's columns are, comma-separated, _ to ignore one: t,theta,_ or t,x,y "
+                             "(units: theta_deg, 'theta [deg]', t_ms). Needed for a table of more than two "
+                             "columns without a header; overrides a header.")(fn)
+
+
+def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | None) -> Any:
+    """The :class:`pendtrack.tables.TableSpec` of the table flags (None if neither is given)."""
+    from pendtrack.tables import TableSpec
+
+    if columns is None and not pivot:
+        return None
+    return TableSpec(columns=columns, pivot=tuple(pivot) if pivot else None)
+
 
 @click.command("kinematics")
 @click.argument("angle_file", metavar="ANGLE", type=click.Path(dir_okay=False))
+@table_options
 @click.option("--window-s", "savgol_window_s", type=float, default=None,
               help="Savitzky-Golay window [s] (config [kinematics] savgol_window_s; paper: 25 frames at 120 fps).")
 @click.option("--order", "savgol_order", type=int, default=None, help="Savitzky-Golay polynomial order (3).")
@@ -18,16 +53,22 @@ from pendtrack.cli.common import CommonArgs, common_options
 @click.option("--min-segment-s", type=float, default=None, help="Drop segments shorter than this [s] (1.0).")
 @common_options()
 def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int | None, max_gap_s: float | None,
-               min_segment_s: float | None, common: CommonArgs) -> None:
-    """Savitzky-Golay omega, alpha and the initial analysis of ANGLE (angle.parquet) -> OUT/kinematics.parquet."""
+               min_segment_s: float | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
+               common: CommonArgs) -> None:
+    """Savitzky-Golay omega, alpha and the initial analysis of ANGLE -> OUT/kinematics.parquet.
+
+    ANGLE is angle.parquet, a Parquet file or a CSV/whitespace table of t [s], theta [rad] (or
+    t, x, y with a pivot), read by its header's column names; slightly uneven time stamps are
+    resampled onto a uniform grid (recorded in the provenance).
+    """
     from pendtrack.stages.kinematics import kinematics_stage
 
     values: dict[str, Any] = {"savgol_window_s": savgol_window_s, "savgol_order": savgol_order,
                               "max_gap_s": max_gap_s, "min_segment_s": min_segment_s}
     given = {k: v for k, v in values.items() if v is not None}
     config = common.config.replace("kinematics", **given) if given else common.config
-    res = kinematics_stage(angle_file, out_dir=common.out, config=config, force=common.force,
-                           progress=common.progress)
+    res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot),
+                           force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")
         return

@@ -15,6 +15,8 @@ from pendtrack.config import Config
 from pendtrack.errors import ArtifactError
 from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.stages.kinematics import read_input, table_sections
+from pendtrack.tables import TableSpec, is_video
 
 JSON_NAME = "discovery.json"
 MD_NAME = "discovery.md"
@@ -22,8 +24,6 @@ MD_NAME = "discovery.md"
 
 def _analysed_file(source: Path, out_dir: Path, config: Config, force: bool, progress: bool) -> Path:
     """The file discovery reads: the input itself, or the angle.parquet made from a video."""
-    from pendtrack.discovery.inputs import is_video
-
     if not source.is_file():
         raise ArtifactError("file not found", path=source)
     if not is_video(source):
@@ -37,15 +37,16 @@ def _analysed_file(source: Path, out_dir: Path, config: Config, force: bool, pro
 
 
 def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, baseline: str | None = None,
-                   effects: tuple[str, ...] | None = None, force: bool = False,
+                   effects: tuple[str, ...] | None = None, table: TableSpec | None = None, force: bool = False,
                    progress: bool = True) -> StageOutput:
     """Diagnose the baseline, name the missing physics, extend the model, measure the gain.
 
     Parameters
     ----------
     source : path
-        angle.parquet, kinematics.parquet, a CSV/whitespace table (t [s], theta [rad], ...)
-        or a video.
+        angle.parquet, kinematics.parquet, a Parquet file or CSV/whitespace table of t,
+        theta or t, x, y (read as `kinematics` and `fit` read it:
+        :func:`pendtrack.stages.kinematics.read_input`), or a video.
     out_dir : path
         Output folder (created): discovery.json, discovery.md (and, for a video, the video
         stages' artifacts).
@@ -56,6 +57,8 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
         Overrides ``config.discover.baseline``.
     effects : tuple of str, optional
         Overrides ``config.discover.effects`` (the catalogue to try; empty = all).
+    table : TableSpec, optional
+        Column names and pivot of a table (``--columns``, ``--pivot``).
     force : bool
         Recompute even if the outputs are up to date.
     progress : bool
@@ -65,7 +68,8 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
     -------
     StageOutput
         ``paths``: discovery.json, discovery.md. ``facts``: baseline, effects, rms and
-        held-out RMS of the baseline and the final model, runtime.
+        held-out RMS of the baseline and the final model, runtime, and ``input`` (how the
+        file was read: columns, pivot, resampling, warnings).
 
     Raises
     ------
@@ -77,7 +81,7 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
         A record that cannot support the analysis.
     """
     from pendtrack.discovery import catalogue
-    from pendtrack.discovery.inputs import read_angle_series
+    from pendtrack.discovery.inputs import MIN_SAMPLES, series_from_record
     from pendtrack.discovery.narrative import write_markdown
     from pendtrack.discovery.search import discover
 
@@ -93,10 +97,12 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
     dc = config.discover
     pool = catalogue.candidates(dc.baseline, dc.effects)  # unknown names fail before any work
     analysed = _analysed_file(source, out_dir, config, force, progress)
-    series = read_angle_series(analysed)
+    rec = read_input(analysed, table=table, min_samples=MIN_SAMPLES, purpose="discovery")
+    series = series_from_record(rec)
     paths = (out_dir / JSON_NAME, out_dir / MD_NAME)
     inputs = inputs_for(analysed)
-    sections = config.sections("discover", "kinematics", "models") | {"fit": {"cost": config.fit.cost}}
+    sections = (config.sections("discover", "kinematics", "models") | {"fit": {"cost": config.fit.cost}}
+                | table_sections(table))
     if up_to_date(paths[:1], "discovery", inputs=inputs, config=sections, force=force) and paths[1].is_file():
         import json
 
@@ -110,7 +116,7 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
     facts = {"source": str(source), "analysed": str(analysed), "baseline": result.baseline,
              "effects": list(result.effects), "baseline_rms": result.baseline_fit.rms,
              "baseline_heldout_rms": result.baseline_heldout_rms, "final_rms": result.final_fit.rms,
-             "final_heldout_rms": result.final_heldout_rms, "runtime_s": result.runtime_s}
+             "final_heldout_rms": result.final_heldout_rms, "runtime_s": result.runtime_s, "input": rec.info}
     prov = Provenance(stage="discover", config=sections, inputs=inputs, extra=facts)
     text = write_markdown(result)
     write_json_artifact(record, paths[0], required=DISCOVERY_JSON_KEYS, provenance=prov)

@@ -34,13 +34,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pendtrack.artifacts import (
-    FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, read_artifact, write_artifact, write_json_artifact,
-)
+from pendtrack.artifacts import FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, write_artifact, write_json_artifact
 from pendtrack.config import Config
 from pendtrack.errors import FitError
 from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.stages.kinematics import kinematics_input
+from pendtrack.tables import TableSpec
 
 log = logging.getLogger(__name__)
 
@@ -92,13 +92,15 @@ def _remove_stale(out_dir: Path, keep: set[str]) -> None:
 
 
 def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, models: tuple[str, ...] | None = None,
-              force: bool = False, progress: bool = True) -> StageOutput:
+              table: TableSpec | None = None, force: bool = False, progress: bool = True) -> StageOutput:
     """Fit each model to a record; writes fit_<model>.json, fit.json and fit.parquet in ``out_dir``.
 
     Parameters
     ----------
     kinematics : path
-        kinematics.parquet (t [s], theta [rad], omega [rad/s], alpha [rad/s^2], ok).
+        kinematics.parquet (t [s], theta [rad], omega [rad/s], alpha [rad/s^2], ok), or any
+        angle record the kinematics stage reads (differentiated in memory with ``[kinematics]``;
+        :func:`pendtrack.stages.kinematics.kinematics_input`).
     out_dir : path
         Output folder (created).
     config : Config
@@ -106,6 +108,8 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         and ``[models]`` (memory).
     models : tuple of str, optional
         Model names (registry names); default ``config.fit.models``.
+    table : TableSpec, optional
+        Column names and pivot of a table input (``--columns``, ``--pivot``).
     force : bool
         Refit even if the outputs are up to date.
     progress : bool
@@ -139,9 +143,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     if len(set(names)) != len(names):
         raise FitError(f"a model is listed twice: {', '.join(names)}", path=kinematics)
     model_objs = {n: get_model(n) for n in names}  # unknown names fail before any work
-    art = read_artifact(kinematics, "kinematics")
+    art, input_sections = kinematics_input(kinematics, config=config, table=table)
     inputs = inputs_for(kinematics)
-    sections: dict[str, Any] = {**config.sections("fit", "models"), "fitted_models": list(names)}
+    sections: dict[str, Any] = {**config.sections("fit", "models"), **input_sections, "fitted_models": list(names)}
     # the number of worker processes does not change a fit: not part of what the outputs depend on
     sections["fit"] = {k: v for k, v in sections["fit"].items() if k != "workers"}
     files = {n: model_json_name(n) for n in names}
