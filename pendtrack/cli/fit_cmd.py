@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from pendtrack.cli.common import CommonArgs, common_options
+from pendtrack.cli.common import CommonArgs, apply_flags, common_options
 from pendtrack.cli.kinematics_cmd import table_options, table_spec
 
 
@@ -41,8 +41,7 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     from pendtrack.stages.fit import fit_stage
 
     values = {"cost": cost, "n_starts": n_starts, "seed": seed, "workers": workers}
-    given = {k: v for k, v in values.items() if v is not None}
-    config = common.config.replace("fit", **given) if given else common.config
+    config = apply_flags(common.config, "fit", **values)
     res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
                     table=table_spec(columns, pivot), force=common.force, progress=common.progress)
     if res.skipped:

@@ -7,7 +7,7 @@ from typing import Any, TypeVar
 
 import click
 
-from pendtrack.cli.common import CommonArgs, common_options
+from pendtrack.cli.common import CommonArgs, apply_flags, common_options
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -65,8 +65,7 @@ def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int
 
     values: dict[str, Any] = {"savgol_window_s": savgol_window_s, "savgol_order": savgol_order,
                               "max_gap_s": max_gap_s, "min_segment_s": min_segment_s}
-    given = {k: v for k, v in values.items() if v is not None}
-    config = common.config.replace("kinematics", **given) if given else common.config
+    config = apply_flags(common.config, "kinematics", **values)
     res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot),
                            force=common.force, progress=common.progress)
     if res.skipped:
