@@ -66,7 +66,12 @@ def _smooth_seed(fn, lo, hi):  # noqa: ANN001, ANN202
     return accel
 
 
-def _smooth_add(rest, fn, lo, hi):  # noqa: ANN001, ANN202
+def _smooth_add(rest, fn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    if always:
+        def accel_always(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN202
+            return rest(theta, sin_theta, omega, t, k) + fn(theta, sin_theta, omega, t, k[lo:hi])
+        return accel_always
+
     def accel(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN202
         a = rest(theta, sin_theta, omega, t, k)
         if k[lo] != 0.0:  # absent term
@@ -79,7 +84,14 @@ def _friction_seed(w, k):  # noqa: ANN001, ANN202
     return 0.0, 0.0
 
 
-def _friction_add(rest, fn, lo, hi):  # noqa: ANN001, ANN202
+def _friction_add(rest, fn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    if always:
+        def pair_always(w, k):  # noqa: ANN001, ANN202
+            m, big_m = rest(w, k)
+            m1, big_m1 = fn(w, k[lo:hi])
+            return m + m1, big_m + big_m1
+        return pair_always
+
     def pair(w, k):  # noqa: ANN001, ANN202
         m, big_m = rest(w, k)
         if k[lo] != 0.0:  # absent term
@@ -101,10 +113,10 @@ def _fold(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...]]:
         if term.fn is None:  # acts through another term's slots, or the memory term
             continue
         if term.kind == "smooth":
-            smooth = _smooth_add(smooth, term.fn, *lay.span(term))
+            smooth = _smooth_add(smooth, term.fn, *lay.span(term), always=term.always)
             made.append(smooth)
         elif term.kind == "friction":
-            friction = _friction_add(friction, term.fn, *lay.span(term))
+            friction = _friction_add(friction, term.fn, *lay.span(term), always=term.always)
             made.append(friction)
     return smooth, friction, tuple(made)
 
