@@ -4,7 +4,13 @@ Two kernels, each a pure-Python function (``*_py``) that numba compiles unchange
 use (``*_nb`` via :func:`pc_kernel_nb` / :func:`rk_kernel_nb`, ``@njit(cache=True)``);
 nothing is compiled or even imported from numba at import time. Both read the packed
 coefficient vector of :mod:`pendtrack.models.terms`, so one kernel serves every
-composition of terms.
+composition of terms. No term is written here: the per-step functions
+:func:`accel_smooth` and :func:`friction_pair` are folds of the formulas declared in
+:mod:`pendtrack.models.terms` (built once at import as plain closures; numba compiles them
+into the kernels, LLVM inlines them), and the same folds evaluate the vectorised
+right-hand side (:mod:`pendtrack.models.rhs`). numba keys its cache on this file only, so
+the kernels are compiled behind a closure holding :func:`declarations_stamp`: a changed or
+added declaration recompiles them instead of loading a stale kernel.
 
 ``pc_kernel_py`` -- the paper's predictor-corrector (section "Solving fractional
 differential equations"): Taylor predictor for theta, sin(theta), omega and the memory
@@ -31,11 +37,11 @@ length), the step is finished from there with the new direction of motion. At om
 the direction is the one the forces push towards; if static friction exceeds them
 (``accel(+1) <= 0 <= accel(-1)``) the pendulum sticks (omega = alpha = 0) until they do.
 
-Compilation (:func:`_compile`): ``error_model="numpy"`` and ``fastmath`` limited to
+Compilation (:func:`_compile`, ~8 s of CPU): ``error_model="numpy"`` and ``fastmath`` limited to
 ``contract``/``arcp`` (fused multiply-add, reciprocal division) for the kernels, full
 ``fastmath`` only for the GL dot product (vectorised reduction). The numba kernels
 therefore agree with their Python twins to rounding (~1e-13 rad over 600 steps), not
-bit for bit. First compilation takes ~10 s of CPU; it is cached (``cache=True``).
+bit for bit. The compilation is cached (``cache=True``).
 """
 
 from __future__ import annotations
@@ -588,9 +594,7 @@ def declarations_stamp() -> str:
     import sys
     from pathlib import Path
 
-    from pendtrack.models import declare, gl
-
-    modules = {T.__name__, declare.__name__, gl.__name__}
+    modules = {T.__name__, Term.__module__, gl_weights.__module__}
     modules.update(t.fn.__module__ for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
     digest = hashlib.sha256()
     for name in sorted(modules):
