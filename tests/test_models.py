@@ -296,3 +296,13 @@ def test_kernel_cache_is_keyed_on_the_declarations() -> None:
     assert stamp == kernels.declarations_stamp() and len(stamp) == 64
     run = kernels._stamped(kernels.pc_kernel_py, stamp)
     assert stamp in [cell.cell_contents for cell in run.__closure__]
+
+
+def test_accel_checks_the_declared_domain_and_ignores_measurement_terms() -> None:
+    t = np.linspace(0.0, 1.0, 11)
+    theta, omega = np.full(11, 0.2), np.linspace(-1.0, 1.0, 11)
+    with pytest.raises(ModelError, match="model 'opa': parameter t0 = 0.0 s must be earlier than the first time"):
+        get_model("opa").accel({**OPA, "t0": 0.0}, theta, omega, t)
+    # the offset is in the observation, not in the equation of motion: same alpha to the last bit
+    with_offset = compose("standard", ["offset"]).accel({**STANDARD, "theta_off": 0.5}, theta, omega, t)
+    np.testing.assert_array_equal(with_offset, get_model("standard").accel(STANDARD, theta, omega, t))

@@ -1,5 +1,10 @@
 """Models as compositions of named terms, and the registry other packages use.
 
+Everything a model knows about its terms -- parameters, ranges, packing, the observation --
+comes from their declarations in :mod:`pendtrack.models.terms`. A model may also hold
+measurement terms (``compose("standard", ["offset"])``): they add parameters and enter
+:meth:`Model.observe`, not the equation of motion.
+
 >>> from pendtrack.models import get_model
 >>> m = get_model("standard")
 >>> m.param_names
@@ -141,8 +146,20 @@ class Model:
         """The observed angle ``theta_obs = f(theta, params)`` [rad] of the model's angle ``theta``.
 
         The measurement terms applied in catalogue order (``offset`` then ``angle_scale``:
-        ``theta_obs = (theta + theta_off)(1 + k_scale (theta + theta_off)^2)``); ``theta``
-        itself (as float64) when the model has none.
+        ``theta_obs = (theta + theta_off)(1 + k_scale (theta + theta_off)^2)``); the identity
+        when the model has none.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The model's angle [rad] (e.g. ``simulate(...).theta``).
+        params : mapping
+            The model's parameters (validated; measurement parameters included).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, the shape of ``theta`` [rad].
         """
         p = self.validate(params)
         out = np.asarray(theta, dtype=np.float64)
