@@ -306,3 +306,20 @@ def test_accel_checks_the_declared_domain_and_ignores_measurement_terms() -> Non
     # the offset is in the observation, not in the equation of motion: same alpha to the last bit
     with_offset = compose("standard", ["offset"]).accel({**STANDARD, "theta_off": 0.5}, theta, omega, t)
     np.testing.assert_array_equal(with_offset, get_model("standard").accel(STANDARD, theta, omega, t))
+
+
+def test_a_physical_term_vanishes_with_its_amplitude() -> None:
+    # the first parameter of each physical term scales it: at 0 the term adds nothing to alpha
+    # (what fitting's linear estimates and discovery's starts rely on)
+    rng = np.random.default_rng(2)
+    theta, omega, t = rng.uniform(-3, 3, 40), rng.uniform(-8, 8, 40), np.linspace(0.0, 1.0, 40)
+    base = get_model("standard")
+    for name, term in TERMS.items():
+        if name in base.terms:
+            continue
+        m = compose(base, [name])
+        p = {**STANDARD, **{k: ALL_PARAMS[k] for k in term.params}, term.amplitude: 0.0}
+        # the same sums with zero added (the memory term: zero times its GL derivative)
+        np.testing.assert_allclose(m.accel(p, theta, omega, t), base.accel(STANDARD, theta, omega, t),
+                                   rtol=1e-15, atol=1e-15)
+    assert [TERMS[n].amplitude for n in ("viscous", "power_drag", "memory")] == ["C1", "C3", "G2"]

@@ -151,6 +151,14 @@ class Term:
         return tuple(s.name for s in self.specs)
 
     @property
+    def amplitude(self) -> str | None:
+        """The parameter that scales a physical term linearly (its first): at 0 the term vanishes.
+
+        ``None`` for gravity and the measurement terms.
+        """
+        return self.specs[0].name if self.is_physical else None
+
+    @property
     def has_memory(self) -> bool:
         """True for the Grunwald-Letnikov term (needs the history of omega)."""
         return self.kind == "memory"
