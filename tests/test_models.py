@@ -220,3 +220,106 @@ def test_simulate_packed_guards_its_arrays() -> None:
         simulate_packed(c, 10, 0.01, 1.0, 0.0, 0, ok, ok, ok)
     with pytest.raises(ModelError, match="forcing"):
         simulate_packed(c, 10, 0.01, 1.0, 0.0, 100, ok, ok, ok, forcing=np.zeros(3))
+
+
+# --- declarations and measurement terms ----------------------------------------------------
+
+def test_measurement_terms_are_declared_and_observed() -> None:
+    m = compose("standard", ["offset"])
+    assert "theta_off" in m.param_names and m.bounds["theta_off"] == (-np.inf, np.inf)
+    assert m.physical_terms == ("viscous", "coulomb", "quadratic_drag") and m.measurement_terms == ("offset",)
+    assert get_model("standard").measurement_terms == ()
+    t = np.arange(0, 3, 1 / 120)
+    plain = simulate("standard", STANDARD, t, theta0=2.0, omega0=0.0)
+    shifted = simulate(m, {**STANDARD, "theta_off": 0.03}, t, theta0=2.0, omega0=0.0)
+    # the offset is not in the equation of motion: the same kernel on the same coefficients
+    np.testing.assert_array_equal(shifted.theta, plain.theta)
+    np.testing.assert_array_equal(m.pack({**STANDARD, "theta_off": 0.03}), get_model("standard").pack(STANDARD))
+    # theta + theta_off: one addition per sample, exact to rounding of that addition
+    np.testing.assert_array_equal(m.observe(plain.theta, {**STANDARD, "theta_off": 0.03}), plain.theta + 0.03)
+    np.testing.assert_array_equal(get_model("standard").observe(plain.theta, STANDARD), plain.theta)
+    with pytest.raises(ModelError, match="'theta_off'"):
+        m.observe(plain.theta, {**STANDARD, "theta_off": float("inf")})
+
+
+def test_angle_scale_and_the_order_of_measurement_terms() -> None:
+    m = compose("standard", ["angle_scale", "offset"])
+    assert m.measurement_terms == ("offset", "angle_scale")  # catalogue order, whatever the order asked
+    assert m.param_names[-2:] == ("theta_off", "k_scale") and m.param_spec("k_scale").unit == "1/rad^2"
+    theta = np.linspace(-2.0, 2.0, 9)
+    p = {**STANDARD, "theta_off": 0.1, "k_scale": -0.02}
+    shifted = theta + 0.1
+    # same operations as the declared formulas, in the same order: equal to the last bit
+    np.testing.assert_array_equal(m.observe(theta, p), shifted * (1.0 + (-0.02) * shifted * shifted))
+    scale_only = compose("standard", ["angle_scale"])
+    np.testing.assert_array_equal(scale_only.observe(theta, {**STANDARD, "k_scale": 0.0}), theta)
+
+
+def test_layout_is_derived_from_the_declarations() -> None:
+    lay = T.LAYOUT
+    assert lay.size == T.N_COEFFS == len(T.empty_coeffs())
+    # every physical term with slots owns a contiguous range, in catalogue order, after gravity's
+    spans = [lay.span(t) for t in (T.BASE, *T.TERMS.values()) if t.slots]
+    assert spans[0][0] == 0 and all(a[1] == b[0] for a, b in zip(spans, spans[1:])) and spans[-1][1] == lay.size
+    assert set(T.PARAMS) == {s.name for t in (T.BASE, *T.CATALOGUE.values()) for s in t.specs}
+    assert not any(t.slots for t in T.MEASUREMENT_TERMS.values())
+    # opa_coulomb is a Coulomb friction: it adds into coulomb's slot
+    both = compose("standard", ["opa_coulomb"]).pack({**STANDARD, "C5": 0.002})
+    assert both[T.K_COUL] == pytest.approx(0.01 + 2 * 5.05 * 0.002)
+
+
+def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
+    # a declaration alone gives its parameters, slots, packing and contribution (here a
+    # hypothetical linear drag in theta, declared outside the catalogue to leave it untouched)
+    from pendtrack.models import kernels
+    from pendtrack.models.declare import Layout, ParamSpec, Slot, Term
+
+    extra = Term("spring", "smooth", (ParamSpec("Ks", "1/s^2", 0.0, np.inf, False, True, "test spring"),),
+                 "-Ks theta", "test", slots=(Slot("SPRING"),), pack=lambda p: {"SPRING": p["Ks"]},
+                 fn=lambda theta, sin_theta, omega, t, c: -c[0] * theta)
+    lay = Layout(T.BASE, (*T.CATALOGUE.values(), extra))
+    assert lay.size == T.N_COEFFS + 1
+    c = lay.pack(("viscous", "spring"), {"Omega0": 2.0, "C1": 0.1, "Ks": 3.0})
+    assert c[lay.index["SPRING"]] == 3.0 and c[lay.index["VISC"]] == 0.1
+    smooth = kernels._smooth_add(kernels._smooth_seed(T.BASE.fn, *lay.span(T.BASE)), extra.fn, *lay.span(extra))
+    theta, omega = np.array([0.3, -0.2]), np.array([1.0, 2.0])
+    a = smooth(theta, np.sin(theta), omega, 0.0, tuple(c.tolist()))
+    np.testing.assert_allclose(a, -4.0 * np.sin(theta) - 3.0 * theta, rtol=1e-15)
+
+
+def test_kernel_cache_is_keyed_on_the_declarations() -> None:
+    # numba keys its cache on the kernel's own file; the declarations' source enters the key
+    # through the stamped closure, so a changed term cannot load a stale kernel
+    from pendtrack.models import kernels
+
+    stamp = kernels.declarations_stamp()
+    assert stamp == kernels.declarations_stamp() and len(stamp) == 64
+    run = kernels._stamped(kernels.pc_kernel_py, stamp)
+    assert stamp in [cell.cell_contents for cell in run.__closure__]
+
+
+def test_accel_checks_the_declared_domain_and_ignores_measurement_terms() -> None:
+    t = np.linspace(0.0, 1.0, 11)
+    theta, omega = np.full(11, 0.2), np.linspace(-1.0, 1.0, 11)
+    with pytest.raises(ModelError, match="model 'opa': parameter t0 = 0.0 s must be earlier than the first time"):
+        get_model("opa").accel({**OPA, "t0": 0.0}, theta, omega, t)
+    # the offset is in the observation, not in the equation of motion: same alpha to the last bit
+    with_offset = compose("standard", ["offset"]).accel({**STANDARD, "theta_off": 0.5}, theta, omega, t)
+    np.testing.assert_array_equal(with_offset, get_model("standard").accel(STANDARD, theta, omega, t))
+
+
+def test_a_physical_term_vanishes_with_its_amplitude() -> None:
+    # the first parameter of each physical term scales it: at 0 the term adds nothing to alpha
+    # (what fitting's linear estimates and discovery's starts rely on)
+    rng = np.random.default_rng(2)
+    theta, omega, t = rng.uniform(-3, 3, 40), rng.uniform(-8, 8, 40), np.linspace(0.0, 1.0, 40)
+    base = get_model("standard")
+    for name, term in TERMS.items():
+        if name in base.terms:
+            continue
+        m = compose(base, [name])
+        p = {**STANDARD, **{k: ALL_PARAMS[k] for k in term.params}, term.amplitude: 0.0}
+        # the same sums with zero added (the memory term: zero times its GL derivative)
+        np.testing.assert_allclose(m.accel(p, theta, omega, t), base.accel(STANDARD, theta, omega, t),
+                                   rtol=1e-15, atol=1e-15)
+    assert [TERMS[n].amplitude for n in ("viscous", "power_drag", "memory")] == ["C1", "C3", "G2"]

@@ -11,7 +11,7 @@ import pytest
 
 from pendtrack.models import get_model, simulate, simulate_packed
 from pendtrack.models import terms as T
-from pendtrack.models.closed_forms import damped_linear, inertial_speed
+from reference_solutions import damped_linear, inertial_speed
 
 STANDARD = {"Omega0": 5.05, "C1": 0.01, "C0": 0.01, "C2": 0.002}
 CLASSIC = {"Omega0": 5.05, "C0": 0.01, "C3": 0.05, "p": 1.7, "Ca": 0.05}

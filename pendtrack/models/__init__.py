@@ -1,4 +1,4 @@
-"""The paper's models, built from named physical terms, and their solvers.
+"""The paper's models, built from declared terms (one declaration each, :mod:`.terms`), and their solvers.
 
 Public API::
 
@@ -12,9 +12,9 @@ Importing this package compiles nothing and does not import numba or scipy.
 
 from pendtrack.models.registry import Model, compose, get_model, list_models
 from pendtrack.models.simulate import SimResult, simulate, simulate_packed
-from pendtrack.models.terms import PARAMS, TERMS, ParamSpec, Term
+from pendtrack.models.terms import CATALOGUE, MEASUREMENT_TERMS, PARAMS, TERMS, ParamSpec, Term
 
 __all__ = [
     "Model", "compose", "get_model", "list_models", "SimResult", "simulate", "simulate_packed",
-    "PARAMS", "TERMS", "ParamSpec", "Term",
+    "CATALOGUE", "MEASUREMENT_TERMS", "PARAMS", "TERMS", "ParamSpec", "Term",
 ]

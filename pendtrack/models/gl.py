@@ -1,4 +1,4 @@
-"""Grunwald-Letnikov fractional derivatives (eq. grunletexperder) and a GL solver.
+"""Grunwald-Letnikov fractional derivatives (eq. grunletexperder).
 
 ``(D^beta f)_i = h^-beta sum_{k=0}^{N} W_k f_{i-k}``, ``W_0 = 1``,
 ``W_k = (1 - (beta + 1)/k) W_{k-1}`` (so ``W_k = (-1)^k binom(beta, k)``). The left
@@ -12,7 +12,6 @@ the first sample (for ``f[0] = 0`` it is also the Riemann-Liouville one). First 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -63,36 +62,3 @@ def gl_derivative(f: np.ndarray, h: float, beta: float, *, memory_steps: int = -
     w = gl_weights(beta, memory_steps)
     padded = np.concatenate([np.full(memory_steps, f0), f])
     return np.convolve(padded, w, mode="valid") * h ** (-beta)
-
-
-def solve_gl_fde(rhs: Callable[[float, float], float], beta: float, y0: float, h: float, n_steps: int, *,
-                 tol: float = 1e-13, max_iter: int = 100) -> np.ndarray:
-    """Solve ``D^beta y = rhs(t, y)``, ``0 < beta <= 1``, ``y(0) = y0`` by the implicit GL scheme.
-
-    Caputo sense (constant past, full history): ``sum_{k<=i} W_k (y_{i-k} - y0) =
-    h^beta rhs(t_i, y_i)``; each step solved by fixed-point iteration from the explicit
-    prediction (contracts when ``h^beta |d rhs/dy| < 1``). First order in h.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``y`` at ``t_i = i h``, i = 0 .. n_steps.
-    """
-    w = gl_weights(beta, n_steps)
-    hb = h ** beta
-    y = np.empty(n_steps + 1)
-    y[0] = y0
-    dev = np.zeros(n_steps + 1)  # y - y0
-    for i in range(1, n_steps + 1):
-        hist = float(np.dot(w[1:i + 1], dev[i - 1::-1])) if i > 1 else w[1] * dev[0]
-        ti = i * h
-        yi = y[i - 1]
-        for _ in range(max_iter):
-            new = y0 - hist + hb * rhs(ti, yi)
-            done = abs(new - yi) <= tol * (1.0 + abs(new))
-            yi = new
-            if done:
-                break
-        y[i] = yi
-        dev[i] = yi - y0
-    return y

@@ -4,7 +4,13 @@ Two kernels, each a pure-Python function (``*_py``) that numba compiles unchange
 use (``*_nb`` via :func:`pc_kernel_nb` / :func:`rk_kernel_nb`, ``@njit(cache=True)``);
 nothing is compiled or even imported from numba at import time. Both read the packed
 coefficient vector of :mod:`pendtrack.models.terms`, so one kernel serves every
-composition of terms.
+composition of terms. No term is written here: the per-step functions
+:func:`accel_smooth` and :func:`friction_pair` are folds of the formulas declared in
+:mod:`pendtrack.models.terms` (built once at import as plain closures; numba compiles them
+into the kernels, LLVM inlines them), and the same folds evaluate the vectorised
+right-hand side (:mod:`pendtrack.models.rhs`). numba keys its cache on this file only, so
+the kernels are compiled behind a closure holding :func:`declarations_stamp`: a changed or
+added declaration recompiles them instead of loading a stale kernel.
 
 ``pc_kernel_py`` -- the paper's predictor-corrector (section "Solving fractional
 differential equations"): Taylor predictor for theta, sin(theta), omega and the memory
@@ -31,11 +37,11 @@ length), the step is finished from there with the new direction of motion. At om
 the direction is the one the forces push towards; if static friction exceeds them
 (``accel(+1) <= 0 <= accel(-1)``) the pendulum sticks (omega = alpha = 0) until they do.
 
-Compilation (:func:`_compile`): ``error_model="numpy"`` and ``fastmath`` limited to
+Compilation (:func:`_compile`, ~8 s of CPU): ``error_model="numpy"`` and ``fastmath`` limited to
 ``contract``/``arcp`` (fused multiply-add, reciprocal division) for the kernels, full
 ``fastmath`` only for the GL dot product (vectorised reduction). The numba kernels
 therefore agree with their Python twins to rounding (~1e-13 rad over 600 steps), not
-bit for bit. First compilation takes ~10 s of CPU; it is cached (``cache=True``).
+bit for bit. The compilation is cached (``cache=True``).
 """
 
 from __future__ import annotations
@@ -44,47 +50,102 @@ import math
 
 import numpy as np
 
-from pendtrack.models.terms import (
-    K_HAS_MEMORY, K_ADDED, K_BETA, K_COUL, K_LIN, K_MEM, K_MEM_U, K_PF, K_POW, K_POW_EXP, K_POW_SCALE, K_QUAD, K_QUARTER,
-    K_QUARTER_SCALE, K_SIN, K_TSCALE, K_TV, K_TV_T0, K_VISC, empty_coeffs,
-)
+from pendtrack.models import terms as T
+from pendtrack.models.declare import Term
+from pendtrack.models.gl import gl_weights
+from pendtrack.models.terms import K_BETA, K_HAS_MEMORY, K_MEM, K_MEM_U, K_PF, K_TSCALE, empty_coeffs
+
+# --- the per-step functions, folded from the term declarations (pendtrack.models.terms) ----
+# Each fold level is a small closure over one declared formula and its slot range; numba
+# inlines every level (register_jitable(inline="always")), so the compiled step is the same
+# straight-line code as if it were written out. Every fold works on floats and on arrays.
 
 
 def unpack(c):  # noqa: ANN001, ANN201
-    """The memory-free coefficients of a packed vector as a tuple (kept in registers by numba)."""
-    return (c[K_SIN], c[K_LIN], c[K_VISC], c[K_COUL], c[K_QUAD], c[K_POW], c[K_POW_EXP], c[K_POW_SCALE],
-            c[K_ADDED], c[K_TV], c[K_TV_T0], c[K_QUARTER], c[K_QUARTER_SCALE])
+    """The packed coefficients as a tuple (kept in registers by numba; ``c[lo:hi]`` of it is static)."""
+    return tuple(c.tolist())
+
+
+def _smooth_seed(fn, lo, hi):  # noqa: ANN001, ANN202
+    def accel(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN202
+        return fn(theta, sin_theta, omega, t, k[lo:hi])
+    return accel
+
+
+def _smooth_add(rest, fn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    if always:
+        def accel_always(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN202
+            return rest(theta, sin_theta, omega, t, k) + fn(theta, sin_theta, omega, t, k[lo:hi])
+        return accel_always
+
+    def accel(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN202
+        a = rest(theta, sin_theta, omega, t, k)
+        if k[lo] != 0.0:  # absent term
+            a = a + fn(theta, sin_theta, omega, t, k[lo:hi])
+        return a
+    return accel
+
+
+def _friction_seed(w, k):  # noqa: ANN001, ANN202
+    return 0.0, 0.0
+
+
+def _friction_add(rest, fn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    if always:
+        def pair_always(w, k):  # noqa: ANN001, ANN202
+            m, big_m = rest(w, k)
+            m1, big_m1 = fn(w, k[lo:hi])
+            return m + m1, big_m + big_m1
+        return pair_always
+
+    def pair(w, k):  # noqa: ANN001, ANN202
+        m, big_m = rest(w, k)
+        if k[lo] != 0.0:  # absent term
+            m1, big_m1 = fn(w, k[lo:hi])
+            m = m + m1
+            big_m = big_m + big_m1
+        return m, big_m
+    return pair
+
+
+def _fold(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...]]:
+    """``(accel_smooth, friction_pair, every function made)`` from the declarations."""
+    lay = T.LAYOUT
+    made: list[object] = []
+    smooth = _smooth_seed(lay.base.fn, *lay.span(lay.base))
+    made.append(smooth)
+    friction = _friction_seed
+    for term in terms:
+        if term.fn is None:  # acts through another term's slots, or the memory term
+            continue
+        if term.kind == "smooth":
+            smooth = _smooth_add(smooth, term.fn, *lay.span(term), always=term.always)
+            made.append(smooth)
+        elif term.kind == "friction":
+            friction = _friction_add(friction, term.fn, *lay.span(term), always=term.always)
+            made.append(friction)
+    return smooth, friction, tuple(made)
+
+
+_ACCEL_SMOOTH, _FRICTION_PAIR, _FOLDED = _fold(tuple(T.TERMS.values()))
 
 
 def accel_smooth(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN201 (numba-compiled)
-    """The terms of the acceleration that are smooth in omega [rad/s^2]; ``k`` from :func:`unpack`."""
-    a = -k[0] * sin_theta - k[1] * theta - k[2] * omega
-    if k[8] != 0.0:  # added_mass
-        a += k[8] * omega * omega * sin_theta
-    if k[9] != 0.0:  # time_varying_damping
-        a -= k[9] * omega / (t - k[10])
-    return a
+    """The terms of the acceleration that are smooth in omega [rad/s^2], gravity included.
+
+    ``k`` from :func:`unpack`. The sum of every declared ``"base"``/``"smooth"`` term's ``fn``.
+    """
+    return _ACCEL_SMOOTH(theta, sin_theta, omega, t, k)
 
 
 def friction_pair(w, k):  # noqa: ANN001, ANN201 (numba-compiled)
     """``(m(w), M(w))`` of the sgn friction at speed ``w = |omega|`` >= 0; ``k`` from :func:`unpack`.
 
-    The friction terms (Coulomb, quadratic, power-law, quarter-power) add
-    ``-sgn(omega) m(|omega|)`` to alpha; ``M(w) = int_0^w m`` [rad/s^3 ... rad^2/s^3] is its
-    antiderivative, so ``-M(|omega|)`` is an even antiderivative of the friction in omega. One
-    ``pow``/``sqrt`` per term serves both.
+    The friction terms (every declared ``"friction"`` term: Coulomb, quadratic, power-law,
+    quarter-power) add ``-sgn(omega) m(|omega|)`` to alpha; ``M(w) = int_0^w m`` is its
+    antiderivative, so ``-M(|omega|)`` is an even antiderivative of the friction in omega.
     """
-    m = k[3] + k[4] * w * w
-    big_m = (k[3] + k[4] * w * w / 3.0) * w
-    if k[5] != 0.0:  # power_drag
-        y = k[5] * (w * k[7]) ** k[6]
-        m += y
-        big_m += y * w / (k[6] + 1.0)
-    if k[11] != 0.0:  # quarter_friction; (0.8 k w) is ready before the root (off the critical path)
-        r4 = math.sqrt(math.sqrt(w * k[12]))
-        m += k[11] * r4
-        big_m += (0.8 * k[11] * w) * r4
-    return m, big_m
+    return _FRICTION_PAIR(w, k)
 
 
 def friction_mean(om_a, om_b, m_a, big_m_a, m_b, big_m_b):  # noqa: ANN001, ANN201
@@ -425,12 +486,7 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
     n_w = n_steps if full else memory_steps
     if not has_mem:
         n_w = 0
-    wr = np.empty(n_w + 1)
-    wk = 1.0
-    wr[n_w] = 1.0
-    for k in range(1, n_w + 1):
-        wk = (1.0 - (beta + 1.0) / k) * wk
-        wr[n_w - k] = wk
+    wr = gl_weights(beta, n_w)[::-1].copy()
     pad = 0 if (full or not has_mem) else memory_steps
     gp = np.empty(pad + n_steps + 1)
     for j in range(pad):
@@ -527,42 +583,87 @@ def pc_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, memory_steps, forc
 _NB: dict[str, object] = {}
 
 
+def declarations_stamp() -> str:
+    """sha256 of the source of every module whose code the kernels compile besides this one.
+
+    numba's cache is keyed on the kernel's own file only: a changed or added term in
+    :mod:`pendtrack.models.terms` would otherwise load a stale kernel. The stamp enters the
+    cache key through :func:`_stamped`.
+    """
+    import hashlib
+    import sys
+    from pathlib import Path
+
+    modules = {T.__name__, Term.__module__, gl_weights.__module__}
+    modules.update(t.fn.__module__ for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
+    digest = hashlib.sha256()
+    for name in sorted(modules):
+        digest.update(name.encode())
+        digest.update(Path(sys.modules[name].__file__).read_bytes())
+    return digest.hexdigest()
+
+
+def _stamped(kernel, stamp):  # noqa: ANN001, ANN202
+    """``kernel`` behind a closure whose cells (``kernel``, ``stamp``) numba hashes into its cache key."""
+    def run(coeffs, n_steps, h, t_start, theta0, omega0, option, forcing,
+            out_theta, out_omega, out_alpha):  # noqa: ANN001, ANN202
+        if stamp:  # always true: the reference puts the stamp into the closure
+            kernel(coeffs, n_steps, h, t_start, theta0, omega0, option, forcing, out_theta, out_omega, out_alpha)
+    return run
+
+
 def _compile() -> None:
     """Register the helpers with numba, build both kernels and compile them (or load the cache).
 
-    The small per-step helpers are inlined at numba-IR level (a call each would cost more
-    than the arithmetic); numba's pedantic SSA check warns about inlined variables, which
-    is harmless, so those warnings are silenced during this one compilation.
+    The small per-step helpers -- the declared terms' formulas and their folds included --
+    are inlined at numba-IR level (a call each would cost more than the arithmetic); numba's
+    pedantic SSA check warns about inlined variables, which is harmless, so those warnings
+    are silenced during this one compilation.
     """
     import warnings
 
     from numba import njit
     from numba.core.errors import NumbaIRAssumptionWarning
-    from numba.extending import register_jitable
+    from numba.extending import overload, register_jitable
+    from numba.np.unsafe.ndarray import to_fixed_tuple
 
-    for fn in (unpack, accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at,
-               memory_fn, memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after):
+    n_coeffs = T.N_COEFFS
+
+    @overload(unpack, inline="always")
+    def _unpack(c):  # noqa: ANN001, ANN202
+        return lambda c: to_fixed_tuple(c, n_coeffs)
+
+    # the folds of the declared formulas: ordinary calls that LLVM inlines (numba's IR-level
+    # inlining of the nested folds would cost minutes of compilation)
+    formulas = tuple(t.fn for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
+    for fn in (*formulas, *_FOLDED, _friction_seed):
+        register_jitable(fn)
+    for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
+               memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after):
         register_jitable(inline="always")(fn)
     for fn in (direction, rk4_step):  # larger: ordinary calls (inlining them costs compile time)
         register_jitable(fn)
     register_jitable(fastmath=True)(gl_dot)
     register_jitable(binomial_series)
+    register_jitable(gl_weights)
     # error_model="numpy": no zero-division checks in the loops (packed models never divide by 0);
     # fastmath contract/arcp only (fused multiply-add, division by reciprocal): the per-step
     # dependency chain gets ~30 % shorter; no reassociation, no NaN/inf assumptions. The
     # twins then differ by rounding only (measured <= 4e-13 rad over 600 steps; test 1e-12)
-    flags = {"contract", "arcp"}
-    rk = njit(cache=True, error_model="numpy", fastmath=flags)(rk_kernel_py)
-    pc = njit(cache=True, error_model="numpy", fastmath=flags)(pc_kernel_py)
+    options = {"error_model": "numpy", "fastmath": {"contract", "arcp"}}
+    stamp = declarations_stamp()
+    compiled = {}
+    for name, kernel in (("rk", rk_kernel_py), ("pc", pc_kernel_py)):
+        register_jitable(**options)(kernel)
+        compiled[name] = njit(cache=True, **options)(_stamped(kernel, stamp))
     c = np.asarray(empty_coeffs())
     c[K_HAS_MEMORY] = 1.0
     out = np.zeros(3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
-        rk(c, 1, 0.1, 0.0, 0.1, 0.0, 1, np.zeros(0), out, out, out)
-        pc(c, 1, 0.1, 0.0, 0.1, 0.0, 1, np.zeros(0), out, out, out)
-    _NB["rk"] = rk
-    _NB["pc"] = pc
+        for kern in compiled.values():
+            kern(c, 1, 0.1, 0.0, 0.1, 0.0, 1, np.zeros(0), out, out, out)
+    _NB.update(compiled)
 
 
 def rk_kernel_nb():  # noqa: ANN201

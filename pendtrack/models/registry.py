@@ -1,5 +1,10 @@
 """Models as compositions of named terms, and the registry other packages use.
 
+Everything a model knows about its terms -- parameters, ranges, packing, the observation --
+comes from their declarations in :mod:`pendtrack.models.terms`. A model may also hold
+measurement terms (``compose("standard", ["offset"])``): they add parameters and enter
+:meth:`Model.observe`, not the equation of motion.
+
 >>> from pendtrack.models import get_model
 >>> m = get_model("standard")
 >>> m.param_names
@@ -24,8 +29,9 @@ from functools import cached_property
 import numpy as np
 
 from pendtrack.errors import ModelError
-from pendtrack.models import terms as T
-from pendtrack.models.terms import PARAMS, TERMS, ParamSpec
+from pendtrack.models.declare import ParamSpec
+from pendtrack.models.rhs import accel_packed
+from pendtrack.models.terms import BASE, CATALOGUE, LAYOUT, PARAMS
 
 
 @dataclass(frozen=True)
@@ -37,7 +43,8 @@ class Model:
     name : str
         Registry name (or ``baseline+term+...`` for a composed model).
     terms : tuple of str
-        Term names from :data:`pendtrack.models.terms.TERMS`, in catalogue order.
+        Term names from :data:`pendtrack.models.terms.CATALOGUE` (physical and measurement
+        terms), in catalogue order.
     description : str
         One line with the paper's equation.
     """
@@ -49,10 +56,20 @@ class Model:
     @cached_property  # asked for on every model evaluation of a fit
     def param_names(self) -> tuple[str, ...]:
         """Ordered parameter names: ``Omega0`` then each term's, in catalogue order."""
-        used = {"Omega0"}
+        used = set(BASE.params)
         for t in self.terms:
-            used.update(TERMS[t].params)
+            used.update(CATALOGUE[t].params)
         return tuple(n for n in PARAMS if n in used)
+
+    @property
+    def physical_terms(self) -> tuple[str, ...]:
+        """The terms of the equation of motion."""
+        return tuple(t for t in self.terms if CATALOGUE[t].is_physical)
+
+    @property
+    def measurement_terms(self) -> tuple[str, ...]:
+        """The terms of the observation (``theta_obs = f(theta, params)``), applied in this order."""
+        return tuple(t for t in self.terms if CATALOGUE[t].kind == "measurement")
 
     @property
     def bounds(self) -> dict[str, tuple[float, float]]:
@@ -68,7 +85,7 @@ class Model:
     @property
     def has_memory(self) -> bool:
         """True if a term needs the history (the fractional GL term)."""
-        return any(TERMS[t].has_memory for t in self.terms)
+        return any(CATALOGUE[t].has_memory for t in self.terms)
 
     def validate(self, params: Mapping[str, float]) -> dict[str, float]:
         """Check a parameter dict and return it as plain floats in ``param_names`` order.
@@ -109,50 +126,61 @@ class Model:
         numpy.ndarray
             float64, shape ``(terms.N_COEFFS,)``; layout ``terms.K_*``.
         """
+        return LAYOUT.pack(self.terms, self.validate(params))
+
+    def check_domain(self, params: Mapping[str, float], t_first: float) -> None:
+        """Raise if validated ``params`` are outside a term's domain for times from ``t_first`` [s] on.
+
+        Raises
+        ------
+        ModelError
+            E.g. ``t0 >= t_first`` for the ``C4/(t - t0)`` damping.
+        """
+        for t in self.terms:
+            check = CATALOGUE[t].domain
+            problem = None if check is None else check(params, t_first)
+            if problem:
+                raise ModelError(f"model '{self.name}': {problem}")
+
+    def observe(self, theta: np.ndarray, params: Mapping[str, float]) -> np.ndarray:
+        """The observed angle ``theta_obs = f(theta, params)`` [rad] of the model's angle ``theta``.
+
+        The measurement terms applied in catalogue order (``offset`` then ``angle_scale``:
+        ``theta_obs = (theta + theta_off)(1 + k_scale (theta + theta_off)^2)``); the identity
+        when the model has none.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The model's angle [rad] (e.g. ``simulate(...).theta``).
+        params : mapping
+            The model's parameters (validated; measurement parameters included).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, the shape of ``theta`` [rad].
+        """
         p = self.validate(params)
-        c = T.empty_coeffs()
-        w0 = p["Omega0"]
-        c[T.K_SIN] = w0 * w0
-        present = set(self.terms)
-        if "viscous" in present:
-            c[T.K_VISC] = p["C1"]
-        if "coulomb" in present:
-            c[T.K_COUL] += p["C0"]
-        if "opa_coulomb" in present:
-            c[T.K_COUL] += 2.0 * w0 * p["C5"]
-        if "quadratic_drag" in present:
-            c[T.K_QUAD] = p["C2"]
-        if "power_drag" in present:
-            c[T.K_POW] = p["C3"]
-            c[T.K_POW_EXP] = p["p"]
-            c[T.K_POW_SCALE] = 1.0 / w0
-        if "added_mass" in present:
-            c[T.K_ADDED] = p["Ca"]
-        if "time_varying_damping" in present:
-            c[T.K_TV] = p["C4"]
-            c[T.K_TV_T0] = p["t0"]
-        if "quarter_friction" in present:
-            c[T.K_QUARTER] = 4.0 * w0 * w0 * p["G1"]
-            c[T.K_QUARTER_SCALE] = 1.0 / (2.0 * w0)
-        if "memory" in present:
-            c[T.K_MEM] = 4.0 * w0 * w0 * p["G2"]
-            c[T.K_BETA] = p["beta"]
-            c[T.K_PF] = p["p_f"]
-            c[T.K_MEM_U] = 2.0 * w0
-            c[T.K_TSCALE] = 2.0 * w0
-            c[T.K_HAS_MEMORY] = 1.0
-        return np.asarray(c, dtype=np.float64)
+        out = np.asarray(theta, dtype=np.float64)
+        for name in self.measurement_terms:
+            term = CATALOGUE[name]
+            out = term.fn(out, tuple(p[n] for n in term.params))
+        return out
 
     def accel(self, params: Mapping[str, float], theta: np.ndarray, omega: np.ndarray, t: np.ndarray, *,
               memory_s: float | None = None, full_history: bool = False) -> np.ndarray:
         """The model's angular acceleration alpha(theta, omega, t, [history]) [rad/s^2].
 
         For equation-error use: evaluates the right-hand side on given (e.g. measured)
-        series. See :func:`pendtrack.models.rhs.model_accel` for the memory conventions.
+        series; measurement terms do not enter. See :func:`pendtrack.models.rhs.accel_packed`
+        for the memory conventions.
         """
-        from pendtrack.models.rhs import model_accel
-
-        return model_accel(self, params, theta, omega, t, memory_s=memory_s, full_history=full_history)
+        p = self.validate(params)
+        t_arr = np.asarray(t, dtype=np.float64)
+        if t_arr.size:
+            self.check_domain(p, float(np.fmin.reduce(t_arr, axis=None)))  # NaN times are no earlier
+        return accel_packed(LAYOUT.pack(self.terms, p), theta, omega, t_arr, memory_s=memory_s, full_history=full_history)
 
     def to_dict(self) -> dict[str, object]:
         return {"name": self.name, "terms": list(self.terms), "param_names": list(self.param_names),
@@ -163,11 +191,11 @@ class Model:
 def _make(name: str, term_names: Iterable[str], description: str) -> Model:
     names = tuple(term_names)
     for t in names:
-        if t not in TERMS:
-            raise ModelError(f"unknown term '{t}' (known terms: {', '.join(TERMS)})")
+        if t not in CATALOGUE:
+            raise ModelError(f"unknown term '{t}' (known terms: {', '.join(CATALOGUE)})")
     if len(set(names)) != len(names):
         raise ModelError(f"model '{name}' lists a term twice: {', '.join(names)}")
-    order = list(TERMS)
+    order = list(CATALOGUE)
     return Model(name=name, terms=tuple(sorted(names, key=order.index)), description=description)
 
 
@@ -215,15 +243,16 @@ def compose(baseline: str | Model, extra_terms: Iterable[str], *, name: str | No
     baseline : str or Model
         Built-in model name or a model.
     extra_terms : iterable of str
-        Term names from the catalogue; a term already in the baseline is an error.
+        Term names from the catalogue (physical or measurement terms); a term already in
+        the baseline is an error.
     name : str, optional
         Name of the new model; default ``"<baseline>+<term>+..."``.
     """
     base = get_model(baseline) if isinstance(baseline, str) else baseline
     extra = tuple(extra_terms)
     for t in extra:
-        if t not in TERMS:
-            raise ModelError(f"unknown term '{t}' (known terms: {', '.join(TERMS)})")
+        if t not in CATALOGUE:
+            raise ModelError(f"unknown term '{t}' (known terms: {', '.join(CATALOGUE)})")
         if t in base.terms:
             raise ModelError(f"term '{t}' is already in model '{base.name}'")
     new_name = name or "+".join((base.name, *extra))

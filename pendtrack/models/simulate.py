@@ -28,14 +28,16 @@ from typing import Any
 
 import numpy as np
 
-from pendtrack.config import ModelsConfig
 from pendtrack.errors import ModelError
 from pendtrack.models import kernels
 from pendtrack.models.registry import Model, get_model
 from pendtrack.models.terms import K_HAS_MEMORY, K_LIN, K_SIN
+from pendtrack.models.timegrid import UNIFORM_RTOL, check_time, is_uniform, memory_steps_for
+
+__all__ = ["SimResult", "simulate", "simulate_packed", "default_substeps", "check_time", "is_uniform",
+           "memory_steps_for", "UNIFORM_RTOL"]
 
 _EMPTY = np.zeros(0)
-UNIFORM_RTOL = 1e-6  # relative spread of the spacing below which t counts as uniform
 NONUNIFORM_REFINE = 4  # memory-free models on a non-uniform t: grid step = mean spacing / this
 SUBSTEP_PHASE = 0.015  # RK4 sub-step: Omega0 h_sub <= this [rad]; 3 sub-steps at 120 fps (measured <= 5e-8 rad
 #                        against the reference over 60 s, 2e-7 near the separatrix)
@@ -85,55 +87,6 @@ class SimResult:
                 "alpha": self.alpha.tolist(), "model": self.model, "params": dict(self.params),
                 "theta0": self.theta0, "omega0": self.omega0, "method": self.method, "step": self.step,
                 "substeps": self.substeps, "memory_steps": self.memory_steps}
-
-
-def check_time(t: Any, *, what: str = "t") -> np.ndarray:
-    """Return ``t`` as a float64 1-D array after checking it is finite and strictly increasing.
-
-    Raises
-    ------
-    ModelError
-        Fewer than 2 samples, NaN/inf, or not strictly increasing (names the first bad index).
-    """
-    arr = np.asarray(t, dtype=np.float64)
-    if arr.ndim != 1 or arr.size < 2:
-        raise ModelError(f"{what} must be a 1-D array of at least 2 times, got shape {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ModelError(f"{what} has a non-finite value at index {bad[0]} ({arr[bad[0]]})")
-    steps = np.diff(arr)
-    bad = np.flatnonzero(steps <= 0)
-    if bad.size:
-        i = bad[0]
-        raise ModelError(f"{what} must be strictly increasing: {what}[{i + 1}] = {arr[i + 1]!r} <= {what}[{i}] = {arr[i]!r}")
-    return arr
-
-
-def is_uniform(t: np.ndarray) -> bool:
-    """True if the spacing of ``t`` is constant to :data:`UNIFORM_RTOL`."""
-    d = np.diff(t)
-    h = (t[-1] - t[0]) / (t.size - 1)
-    return bool(np.max(np.abs(d - h)) <= UNIFORM_RTOL * h)
-
-
-def memory_steps_for(memory_s: float | None, h: float, *, full_history: bool = False) -> int:
-    """GL memory length in steps: ``round(memory_s / h)`` (>= 1), or -1 for the full history.
-
-    ``memory_s=None`` takes :attr:`ModelsConfig.memory_s` (paper: 100 frames at 120 fps).
-    """
-    if full_history:
-        return -1
-    m = ModelsConfig().memory_s if memory_s is None else memory_s
-    try:
-        m = float(m)
-    except (TypeError, ValueError):
-        raise ModelError(f"memory_s must be a duration in seconds, got {memory_s!r}") from None
-    if not math.isfinite(m) or m <= 0:
-        raise ModelError(f"memory_s must be a positive duration in seconds, got {m!r}")
-    n = int(round(m / h))
-    if n < 1:
-        raise ModelError(f"memory_s = {m:g} s is shorter than half the time step ({h:g} s): no memory left")
-    return n
 
 
 def default_substeps(coeffs: np.ndarray, h: float) -> int:
@@ -242,9 +195,7 @@ def simulate(model: Model | str, params: Mapping[str, float], t: Any, *, theta0:
         raise ModelError(f"theta0 and omega0 must be numbers, got {theta0!r}, {omega0!r}") from None
     if not (math.isfinite(th0) and math.isfinite(om0)):
         raise ModelError(f"initial state must be finite, got theta0={th0!r}, omega0={om0!r}")
-    if "time_varying_damping" in m.terms and not p["t0"] < tt[0]:
-        raise ModelError(f"parameter t0 = {p['t0']!r} s of model '{m.name}' must be earlier than the first "
-                         f"time t[0] = {tt[0]!r} s (C4 omega/(t - t0) is singular at t0)")
+    m.check_domain(p, float(tt[0]))
     if method not in ("auto", "fast", "reference"):
         raise ModelError(f"unknown method '{method}' (use auto, fast or reference)")
     if substeps is not None and (not isinstance(substeps, (int, np.integer)) or substeps < 1):

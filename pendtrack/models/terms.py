@@ -1,166 +1,195 @@
-"""The parameters and named physical terms the paper's models are built from.
+"""The declarations of every term the paper's models are built from -- one each.
 
 Every model is ``alpha + Omega0**2 sin(theta) = sum of its terms`` (eq. basemodel1), with
-``alpha = d2 theta/dt2`` in rad/s^2. Each term below contributes to the right-hand side
-(in rad/s^2) as written in its ``formula``; ``sgn(0) = +1`` (eq. sgn).
+``alpha = d2 theta/dt2`` in rad/s^2, ``sgn(0) = +1`` (eq. sgn). A declaration
+(:class:`~pendtrack.models.declare.Term`) gives a term's parameters with their ranges, its
+slots in the packed coefficient vector, how its parameters pack into them, and its formula
+as code; the registry, ``Model.pack``, the numba kernels, their Python twins and the
+vectorised right-hand side all derive from it (see :mod:`pendtrack.models.declare` for the
+conventions). **Adding a term is one declaration here plus its tests.**
 
-The solvers do not see terms: a model's parameters are packed into one flat float64
-coefficient vector (layout ``K_*`` below) that a single generic kernel reads; a term that
-is absent simply has zero coefficients. The layout is part of the low-level API
-(:func:`pendtrack.models.simulate_packed`); a test pins it.
+Measurement terms (kind ``"measurement"``) do not enter the equation of motion: they map
+the model's angle to the observed one, ``theta_obs = f(theta, params)``
+(``Model.observe``), applied in catalogue order.
+
+The solvers do not see terms: they read one flat float64 coefficient vector (layout
+:data:`LAYOUT`; the ``K_*`` indices below are kept for the low-level API
+:func:`pendtrack.models.simulate_packed`); a term that is absent keeps its slots at their
+neutral values and contributes nothing.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+import numpy as np
+
+from pendtrack.models.declare import Layout, ParamSpec, Slot, Term
+
+__all__ = ["BASE", "CATALOGUE", "TERMS", "MEASUREMENT_TERMS", "PARAMS", "LAYOUT", "N_COEFFS", "ParamSpec", "Term",
+           "Slot", "empty_coeffs"]
 
 INF = math.inf
-
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """One physical parameter: name as in the paper, unit, physical range and meaning.
-
-    ``low``/``high`` are the bounds; ``low_open``/``high_open`` say whether the bound
-    itself is excluded.
-    """
-
-    name: str
-    unit: str
-    low: float
-    high: float
-    low_open: bool
-    high_open: bool
-    description: str
-
-    def contains(self, value: float) -> bool:
-        """True if ``value`` is finite (unless a bound is infinite) and inside the range."""
-        if math.isnan(value):
-            return False
-        above = value > self.low if self.low_open else value >= self.low
-        below = value < self.high if self.high_open else value <= self.high
-        return above and below
-
-    def range_text(self) -> str:
-        left = "(" if self.low_open else "["
-        right = ")" if self.high_open else "]"
-        return f"{left}{self.low:g}, {self.high:g}{right}"
 
 
 def _p(name: str, unit: str, low: float, high: float, low_open: bool, high_open: bool, description: str) -> ParamSpec:
     return ParamSpec(name, unit, low, high, low_open, high_open, description)
 
 
-#: Every parameter any term uses, in the canonical order of ``Model.param_names``.
-PARAMS: dict[str, ParamSpec] = {
-    s.name: s
-    for s in (
-        _p("Omega0", "rad/s", 0.0, INF, True, True, "natural angular frequency, eq. NatOmega0"),
-        _p("C1", "1/s", 0.0, INF, False, True, "viscous (Stokes) coefficient, eq. standarddiss"),
-        _p("C0", "rad/s^2", 0.0, INF, False, True, "Coulomb dry friction, eqs. standarddiss/classicmodel"),
-        _p("C2", "1/rad", 0.0, INF, False, True, "quadratic (Newton) drag, eq. standarddiss"),
-        _p("C3", "rad/s^2", 0.0, INF, False, True, "power-law drag amplitude, eq. powerlawdiss"),
-        _p("p", "1", 0.0, INF, True, True, "power-law exponent, eq. powerlawdiss"),
-        _p("Ca", "1", 0.0, INF, False, True, "added-mass coefficient, eq. ainerdef"),
-        _p("C4", "1", 0.0, INF, False, True, "time-varying laminar damping, eq. newDNHM"),
-        _p("t0", "s", -INF, INF, True, True, "time origin of the C4/(t - t0) damping (must be < t[0]), eq. newDNHM"),
-        _p("C5", "1/s", 0.0, INF, False, True, "OPA Coulomb coefficient (acts as 2 Omega0 C5), eq. newDNHM"),
-        _p("G1", "1", 0.0, INF, False, True, "quarter-power friction, eq. ourfinalmodel"),
-        _p("G2", "1", 0.0, INF, False, True, "fractional (memory) drag amplitude, eq. ourfinalmodel"),
-        _p("beta", "1", 0.0, 2.0, True, True, "order of the Grunwald-Letnikov derivative, eq. ourfinalmodel"),
-        _p("p_f", "1", 0.0, INF, True, True, "exponent inside the fractional derivative, eq. ourfinalmodel"),
-    )
-}
+def _positive(name: str, unit: str, description: str) -> ParamSpec:
+    """A coefficient in [0, inf)."""
+    return _p(name, unit, 0.0, INF, False, True, description)
 
 
-@dataclass(frozen=True)
-class Term:
-    """A named physical term of the right-hand side.
+# --- the formulas (c: the term's own slot values, in the order of its slots) ----------------
+# Each works on floats (numba compiles it into the kernels) and on numpy arrays (the
+# vectorised right-hand side), hence numpy ufuncs and no branches.
 
-    Attributes
-    ----------
-    name : str
-        Catalogue name (fixed; other packages refer to terms by it).
-    params : tuple of str
-        Parameters the term uses (besides ``Omega0``, which every model has).
-    formula : str
-        Its contribution to ``alpha + Omega0^2 sin(theta)`` [rad/s^2].
-    equation : str
-        The paper's equation label.
-    has_memory : bool
-        True for the Grunwald-Letnikov term (needs the history of omega).
-    """
-
-    name: str
-    params: tuple[str, ...]
-    formula: str
-    equation: str
-    has_memory: bool = False
-
-    def to_dict(self) -> dict[str, object]:
-        return {"name": self.name, "params": list(self.params), "formula": self.formula,
-                "equation": self.equation, "has_memory": self.has_memory}
+def _gravity(theta, sin_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return -c[0] * sin_theta - c[1] * theta
 
 
-#: The term catalogue. Names are fixed: fitting, discovery and batch use them.
-TERMS: dict[str, Term] = {
+def _viscous(theta, sin_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return -c[0] * omega
+
+
+def _added_mass(theta, sin_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return c[0] * omega * omega * sin_theta
+
+
+def _time_varying_damping(theta, sin_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return -c[0] * omega / (t - c[1])
+
+
+def _coulomb(w, c):  # noqa: ANN001, ANN201
+    return c[0], c[0] * w
+
+
+def _quadratic_drag(w, c):  # noqa: ANN001, ANN201
+    w2 = w * w
+    return c[0] * w2, c[0] * w2 * w / 3.0
+
+
+def _power_drag(w, c):  # noqa: ANN001, ANN201
+    amp, exponent, scale = c
+    y = amp * (w * scale) ** exponent
+    return y, y * w / (exponent + 1.0)
+
+
+def _quarter_friction(w, c):  # noqa: ANN001, ANN201
+    amp, scale = c
+    r4 = np.sqrt(np.sqrt(w * scale))
+    return amp * r4, (0.8 * amp * w) * r4  # (0.8 amp w) is ready before the root (off the critical path)
+
+
+def _offset(theta, c):  # noqa: ANN001, ANN201
+    return theta + c[0]
+
+
+def _angle_scale(theta, c):  # noqa: ANN001, ANN201
+    return theta * (1.0 + c[0] * theta * theta)
+
+
+def _t0_before(p, t_first):  # noqa: ANN001, ANN201
+    if p["t0"] < t_first:
+        return None
+    return (f"parameter t0 = {p['t0']!r} s must be earlier than the first time t[0] = {t_first!r} s "
+            "(C4 omega/(t - t0) is singular at t0)")
+
+
+# --- the declarations --------------------------------------------------------------------
+
+#: Gravity, ``-Omega0^2 sin(theta)``: in every model. The linear restoring slot ``LIN``
+#: (``-K_LIN theta``) is 0 in every pendulum model; tests set it to get an exactly linear
+#: oscillator.
+BASE = Term(
+    "gravity", "base", (_p("Omega0", "rad/s", 0.0, INF, True, True, "natural angular frequency, eq. NatOmega0"),),
+    "-Omega0^2 sin(theta)", "basemodel1",
+    slots=(Slot("SIN", 0.0, "Omega0^2 [1/s^2]"), Slot("LIN", 0.0, "linear restoring coefficient [1/s^2]")),
+    pack=lambda p: {"SIN": p["Omega0"] * p["Omega0"]}, fn=_gravity)
+
+#: The term catalogue, in canonical order (parameter order of models, slot order).
+CATALOGUE: dict[str, Term] = {
     t.name: t
     for t in (
-        Term("viscous", ("C1",), "-C1 omega", "standarddiss"),
-        Term("coulomb", ("C0",), "-C0 sgn(omega)", "standarddiss"),
-        Term("quadratic_drag", ("C2",), "-C2 omega |omega|", "standarddiss"),
-        Term("power_drag", ("C3", "p"), "-C3 |omega/Omega0|^p sgn(omega)", "powerlawdiss"),
-        Term("added_mass", ("Ca",), "+Ca omega^2 sin(theta)", "ainerdef"),
-        Term("time_varying_damping", ("C4", "t0"), "-C4 omega/(t - t0)", "newDNHM"),
-        Term("opa_coulomb", ("C5",), "-2 Omega0 C5 sgn(omega)", "newDNHM"),
-        Term("quarter_friction", ("G1",), "-4 Omega0^2 G1 |A_omega|^(1/4) sgn(A_omega), A_omega = omega/(2 Omega0)",
-             "ourfinalmodel"),
-        Term("memory", ("G2", "beta", "p_f"),
+        Term("viscous", "smooth", (_positive("C1", "1/s", "viscous (Stokes) coefficient, eq. standarddiss"),),
+             "-C1 omega", "standarddiss",
+             slots=(Slot("VISC"),), pack=lambda p: {"VISC": p["C1"]}, fn=_viscous, always=True),
+        Term("coulomb", "friction",
+             (_positive("C0", "rad/s^2", "Coulomb dry friction, eqs. standarddiss/classicmodel"),),
+             "-C0 sgn(omega)", "standarddiss",
+             slots=(Slot("COUL", 0.0, "C0 + 2 Omega0 C5"),), pack=lambda p: {"COUL": p["C0"]}, fn=_coulomb,
+             always=True),
+        Term("quadratic_drag", "friction", (_positive("C2", "1/rad", "quadratic (Newton) drag, eq. standarddiss"),),
+             "-C2 omega |omega|", "standarddiss",
+             slots=(Slot("QUAD"),), pack=lambda p: {"QUAD": p["C2"]}, fn=_quadratic_drag, always=True),
+        Term("power_drag", "friction",
+             (_positive("C3", "rad/s^2", "power-law drag amplitude, eq. powerlawdiss"),
+              _p("p", "1", 0.0, INF, True, True, "power-law exponent, eq. powerlawdiss")),
+             "-C3 |omega/Omega0|^p sgn(omega)", "powerlawdiss",
+             slots=(Slot("POW"), Slot("POW_EXP", 1.0), Slot("POW_SCALE", 1.0, "1/Omega0")),
+             pack=lambda p: {"POW": p["C3"], "POW_EXP": p["p"], "POW_SCALE": 1.0 / p["Omega0"]}, fn=_power_drag),
+        Term("added_mass", "smooth", (_positive("Ca", "1", "added-mass coefficient, eq. ainerdef"),),
+             "+Ca omega^2 sin(theta)", "ainerdef",
+             slots=(Slot("ADDED"),), pack=lambda p: {"ADDED": p["Ca"]}, fn=_added_mass, always=True),
+        Term("time_varying_damping", "smooth",
+             (_positive("C4", "1", "time-varying laminar damping, eq. newDNHM"),
+              _p("t0", "s", -INF, INF, True, True, "time origin of the C4/(t - t0) damping (must be < t[0]), eq. newDNHM")),
+             "-C4 omega/(t - t0)", "newDNHM",
+             slots=(Slot("TV"), Slot("TV_T0", -INF)), pack=lambda p: {"TV": p["C4"], "TV_T0": p["t0"]},
+             fn=_time_varying_damping, domain=_t0_before),
+        Term("opa_coulomb", "friction",
+             (_positive("C5", "1/s", "OPA Coulomb coefficient (acts as 2 Omega0 C5), eq. newDNHM"),),
+             "-2 Omega0 C5 sgn(omega)", "newDNHM",
+             pack=lambda p: {"COUL": 2.0 * p["Omega0"] * p["C5"]}),  # a Coulomb friction: coulomb's slot and fn
+        Term("quarter_friction", "friction", (_positive("G1", "1", "quarter-power friction, eq. ourfinalmodel"),),
+             "-4 Omega0^2 G1 |A_omega|^(1/4) sgn(A_omega), A_omega = omega/(2 Omega0)", "ourfinalmodel",
+             slots=(Slot("QUARTER", 0.0, "4 Omega0^2 G1"), Slot("QUARTER_SCALE", 1.0, "1/(2 Omega0)")),
+             pack=lambda p: {"QUARTER": 4.0 * p["Omega0"] * p["Omega0"] * p["G1"],
+                             "QUARTER_SCALE": 1.0 / (2.0 * p["Omega0"])}, fn=_quarter_friction),
+        # alpha -= K_MEM D^K_BETA_tau(g(omega)), g = x |x|^(K_PF - 1), x = omega/K_MEM_U, tau = K_TSCALE t;
+        # K_HAS_MEMORY = 1 selects the paper's predictor-corrector (also with G2 = 0)
+        Term("memory", "memory",
+             (_positive("G2", "1", "fractional (memory) drag amplitude, eq. ourfinalmodel"),
+              _p("beta", "1", 0.0, 2.0, True, True, "order of the Grunwald-Letnikov derivative, eq. ourfinalmodel"),
+              _p("p_f", "1", 0.0, INF, True, True, "exponent inside the fractional derivative, eq. ourfinalmodel")),
              "-4 Omega0^2 G2 D^beta_{t*}(A_omega |A_omega|^(p_f-1)), t* = 2 Omega0 t (left Grunwald-Letnikov)",
-             "ourfinalmodel", has_memory=True),
+             "ourfinalmodel",
+             slots=(Slot("MEM", 0.0, "4 Omega0^2 G2"), Slot("BETA", 1.0), Slot("PF", 1.0),
+                    Slot("MEM_U", 1.0, "2 Omega0 (omega -> A_omega)"), Slot("TSCALE", 1.0, "2 Omega0 (t -> t*)"),
+                    Slot("HAS_MEMORY", 0.0, "1: the model has the memory term (the paper's PC scheme)")),
+             pack=lambda p: {"MEM": 4.0 * p["Omega0"] * p["Omega0"] * p["G2"], "BETA": p["beta"], "PF": p["p_f"],
+                             "MEM_U": 2.0 * p["Omega0"], "TSCALE": 2.0 * p["Omega0"], "HAS_MEMORY": 1.0}),
+        # measurement terms, applied in this order: the camera's zero, then its angle scale
+        Term("offset", "measurement",
+             (_p("theta_off", "rad", -INF, INF, True, True, "offset of the measured angle's zero"),),
+             "theta_obs = theta + theta_off", "measurement", fn=_offset),
+        Term("angle_scale", "measurement",
+             (_p("k_scale", "1/rad^2", -INF, INF, True, True, "cubic error of the measured angle's scale"),),
+             "theta_obs = theta (1 + k_scale theta^2)", "measurement", fn=_angle_scale),
     )
 }
 
-# --- packed coefficient layout (read by the kernels) ---------------------------------
-# alpha = -K_SIN sin(theta) - K_LIN theta - K_VISC omega - s (K_COUL + K_QUAD omega^2)
-#         - s K_POW |omega K_POW_SCALE|^K_POW_EXP + K_ADDED omega^2 sin(theta)
-#         - K_TV omega/(t - K_TV_T0) - s K_QUARTER |omega K_QUARTER_SCALE|^(1/4)
-#         - K_MEM D^K_BETA_{tau}(g(omega)),  g(omega) = x |x|^(K_PF - 1), x = omega/K_MEM_U,
-#           tau = K_TSCALE t  (so the GL step is K_TSCALE h)
-#         + forcing(t)
-# where s = sgn(omega) (or the direction of motion at omega = 0, see kernels).
-K_SIN = 0  # Omega0^2 [1/s^2]
-K_LIN = 1  # linear restoring coefficient [1/s^2] (0 for every pendulum model; tests use it)
-K_VISC = 2  # C1
-K_COUL = 3  # C0 + 2 Omega0 C5
-K_QUAD = 4  # C2
-K_POW = 5  # C3
-K_POW_EXP = 6  # p
-K_POW_SCALE = 7  # 1/Omega0
-K_ADDED = 8  # Ca
-K_TV = 9  # C4
-K_TV_T0 = 10  # t0
-K_QUARTER = 11  # 4 Omega0^2 G1
-K_QUARTER_SCALE = 12  # 1/(2 Omega0)
-K_MEM = 13  # 4 Omega0^2 G2
-K_BETA = 14  # beta
-K_PF = 15  # p_f
-K_MEM_U = 16  # 2 Omega0 (omega -> A_omega)
-K_TSCALE = 17  # 2 Omega0 (t -> t*)
-K_HAS_MEMORY = 18  # 1.0 if the model has the memory term (selects the paper's PC scheme)
-N_COEFFS = 19
+#: The physical terms (the equation of motion). Names are fixed: fitting, discovery and batch use them.
+TERMS: dict[str, Term] = {n: t for n, t in CATALOGUE.items() if t.is_physical}
+#: The measurement terms (the observation).
+MEASUREMENT_TERMS: dict[str, Term] = {n: t for n, t in CATALOGUE.items() if t.kind == "measurement"}
+
+#: Every parameter any term uses, in the canonical order of ``Model.param_names``.
+PARAMS: dict[str, ParamSpec] = {s.name: s for t in (BASE, *CATALOGUE.values()) for s in t.specs}
+
+#: The packed coefficient vector.
+LAYOUT = Layout(BASE, CATALOGUE.values())
+N_COEFFS = LAYOUT.size
+# slot indices of the low-level API (tests and the memory term's special treatment use them)
+K_SIN, K_LIN, K_VISC, K_COUL, K_QUAD = (LAYOUT.index[n] for n in ("SIN", "LIN", "VISC", "COUL", "QUAD"))
+K_POW, K_POW_EXP, K_POW_SCALE = (LAYOUT.index[n] for n in ("POW", "POW_EXP", "POW_SCALE"))
+K_ADDED, K_TV, K_TV_T0, K_QUARTER, K_QUARTER_SCALE = (
+    LAYOUT.index[n] for n in ("ADDED", "TV", "TV_T0", "QUARTER", "QUARTER_SCALE"))
+K_MEM, K_BETA, K_PF, K_MEM_U, K_TSCALE, K_HAS_MEMORY = (
+    LAYOUT.index[n] for n in ("MEM", "BETA", "PF", "MEM_U", "TSCALE", "HAS_MEMORY"))
 
 
 def empty_coeffs() -> list[float]:
     """A coefficient list with every term absent (neutral values for exponents/scales)."""
-    c = [0.0] * N_COEFFS
-    c[K_POW_EXP] = 1.0
-    c[K_POW_SCALE] = 1.0
-    c[K_TV_T0] = -INF
-    c[K_QUARTER_SCALE] = 1.0
-    c[K_BETA] = 1.0
-    c[K_PF] = 1.0
-    c[K_MEM_U] = 1.0
-    c[K_TSCALE] = 1.0
-    return c
+    return list(LAYOUT.neutral)
