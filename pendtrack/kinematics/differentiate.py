@@ -43,6 +43,7 @@ import numpy as np
 
 from pendtrack.config import KinematicsConfig
 from pendtrack.errors import PendtrackError
+from pendtrack.models.timegrid import check_time
 
 log = logging.getLogger(__name__)
 
@@ -126,14 +127,7 @@ def _check_inputs(t: Any, theta: Any, ok: Any) -> tuple[np.ndarray, np.ndarray, 
     ok = np.ones(t.shape, dtype=bool) if ok is None else np.asarray(ok, dtype=bool)
     if t.ndim != 1 or theta.shape != t.shape or ok.shape != t.shape:
         raise KinematicsError(f"t, theta and ok must be 1-D of the same length, got {t.shape}, {theta.shape}, {ok.shape}")
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise KinematicsError(f"time has a non-finite value at row {bad[0]}")
-    steps = np.diff(t)
-    bad = np.flatnonzero(steps <= 0)
-    if bad.size:
-        raise KinematicsError(f"time must be strictly increasing: t[{bad[0] + 1}] = {t[bad[0] + 1]!r} "
-                              f"<= t[{bad[0]}] = {t[bad[0]]!r}")
+    check_time(t, what="t", error=KinematicsError, min_size=0)
     return t, theta, ok & np.isfinite(theta)
 
 

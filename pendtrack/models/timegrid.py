@@ -13,25 +13,36 @@ from pendtrack.errors import ModelError
 UNIFORM_RTOL = 1e-6  # relative spread of the spacing below which t counts as uniform
 
 
-def check_time(t: Any, *, what: str = "t") -> np.ndarray:
+def check_time(t: Any, *, what: str = "t", error: type[Exception] = ModelError, min_size: int = 2) -> np.ndarray:
     """Return ``t`` as a float64 1-D array after checking it is finite and strictly increasing.
+
+    Parameters
+    ----------
+    t : array_like
+        Times [s].
+    what : str
+        Name of the array in the messages.
+    error : exception class
+        Raised on a bad axis (the caller's layer's error; default :class:`ModelError`).
+    min_size : int
+        Fewest samples accepted.
 
     Raises
     ------
-    ModelError
-        Fewer than 2 samples, NaN/inf, or not strictly increasing (names the first bad index).
+    error
+        Fewer than ``min_size`` samples, NaN/inf, or not strictly increasing (names the first bad index).
     """
     arr = np.asarray(t, dtype=np.float64)
-    if arr.ndim != 1 or arr.size < 2:
-        raise ModelError(f"{what} must be a 1-D array of at least 2 times, got shape {arr.shape}")
+    if arr.ndim != 1 or arr.size < min_size:
+        raise error(f"{what} must be a 1-D array of at least {min_size} times, got shape {arr.shape}")
     bad = np.flatnonzero(~np.isfinite(arr))
     if bad.size:
-        raise ModelError(f"{what} has a non-finite value at index {bad[0]} ({arr[bad[0]]})")
+        raise error(f"{what} has a non-finite value at index {bad[0]} ({arr[bad[0]]})")
     steps = np.diff(arr)
     bad = np.flatnonzero(steps <= 0)
     if bad.size:
         i = bad[0]
-        raise ModelError(f"{what} must be strictly increasing: {what}[{i + 1}] = {arr[i + 1]!r} <= {what}[{i}] = {arr[i]!r}")
+        raise error(f"{what} must be strictly increasing: {what}[{i + 1}] = {arr[i + 1]!r} <= {what}[{i}] = {arr[i]!r}")
     return arr
 
 
