@@ -66,6 +66,22 @@ def test_too_gappy_record_fails_with_a_one_line_fit_error():
     assert "\n" not in str(info.value)
 
 
+@pytest.mark.parametrize("periods", [2.6, 1.6])
+def test_few_turning_points_fit_or_say_why(periods):
+    # 2.6 periods: ~5 turning points, the fit runs (its damping is then flagged, not converged-and-quoted);
+    # 1.6 periods: too few, one line saying how many there are and how many are needed
+    t = np.arange(int(periods * 2 * np.pi / 5.0 * 120)) / 120.0
+    sim = simulate(get_model("standard"), STANDARD, t, theta0=1.0, omega0=0.0)
+    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
+    try:
+        res = fit_model(get_model("classic"), t, theta, np.gradient(theta, t), options=FAST)
+    except FitError as exc:
+        assert periods < 2 and "\n" not in str(exc) and "turning points" in str(exc) and "need" in str(exc)
+    else:
+        assert periods > 2 and np.isfinite(res.xi2_min)
+        assert res.trustworthy == (res.converged and not res.flags)
+
+
 def test_deadlines_split_the_budget_and_keep_the_reserve():
     d = Deadlines.start(40.0, 0.5, now=100.0)
     assert d.search == pytest.approx(120.0)

@@ -140,7 +140,8 @@ def summarize(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.nda
         raise FitError("cannot estimate Omega0 from the turning points", path=source)
     turns = _dedupe(tp.t, 0.1 * math.pi / w0)
     if turns.size < MIN_HALF_SWINGS:
-        raise FitError(f"no oscillation to fit ({turns.size} distinct turning points)", path=source)
+        raise FitError(f"no oscillation to fit ({turns.size} distinct turning points, need at least {MIN_HALF_SWINGS})",
+                       path=source)
     return DataSummary(omega0_hat=w0, omega0_source="kinematics", turning_times=turns, amplitude=amplitude,
                        theta_init=float(theta[0]), omega_init=float(omega[0]), n=n)
 
