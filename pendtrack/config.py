@@ -102,6 +102,10 @@ class FitConfig:
     ladder: bool = True  # each start fits a growing window (three periods, doubled up to the record): no phase slips
     trust_region_polish: bool = False  # finish the best fit by a trust-region least-squares run too (discovery: on)
     workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
+    # wall-time budget of each model's fit [s]; 0 = none. Three models of a 60 s record then fit in
+    # about 2 min on 2 cores, so `run` on a 60 s video stays within 3 min (one classic fit ran 740 s)
+    time_budget_s: float = 40.0
+    time_reserve: float = 0.5  # share of the budget kept after the search: 3/4 to refine the best start, 1/4 for its uncertainties
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -290,6 +294,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.bootstrap": (_ge(0),),
     "fit.start_budget": (_ge(1),),
     "fit.workers": (_ge(0),),
+    "fit.time_budget_s": (_ge(0),),
+    "fit.time_reserve": (_within(0, 1, lo_open=True, hi_open=True),),
     "batch.scheduler": (_NAME,),
     "batch.workers": (_ge(0),),
     "batch.threads_per_worker": (_ge(1),),

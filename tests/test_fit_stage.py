@@ -52,7 +52,8 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
     extras = {"initial_state", "cost", "n_params", "n_starts", "n_accepted", "accept_ratio", "window", "omega0_hat",
               "memory_s", "full_history", "hac_lag", "stderr_reliable", "u_region", "stderr_naive",
               "stderr_bootstrap", "stderr_low", "stderr_high", "estimates", "fixed", "covariance", "start_costs",
-              "message", "provenance"}
+              "message", "provenance",
+              "n_starts_planned", "stopped", "flags", "trustworthy"}  # issue #15: time budget and flags
     assert set(data) == set(FIT_JSON_KEYS) | extras
     assert data["model"] == "standard" and data["converged"] is True and data["n_starts"] == 3
     assert set(data["params"]) == set(STANDARD)

@@ -63,12 +63,16 @@ def videos(tmp_path_factory):
 
 
 def _check(res, out: Path, *, failed_kinds: tuple[str, ...], names: tuple[str, ...]) -> None:
-    """Exit 0, or exit 2 with one line ``error: ...`` naming one of ``names``; no traceback; whole artifacts."""
+    """Exit 0, 1 (a fit flagged, every file written), or exit 2 with one line ``error: ...`` naming one of
+    ``names``; no traceback; whole artifacts."""
     text = res.output
     assert "Traceback" not in text, text
     if res.exception is not None and not isinstance(res.exception, SystemExit):
         raise AssertionError(f"uncaught {type(res.exception).__name__}: {res.exception}")
-    assert res.exit_code in (0, 2), (res.exit_code, text)
+    # 1 (issue #15, the exit rule of `fit` and `run`): every file written, a fit not converged or flagged
+    assert res.exit_code in (0, 1, 2), (res.exit_code, text)
+    if res.exit_code == 1:
+        assert (out / "fit.json").exists() and "warning: the " in text, text
     if res.exit_code == 2:
         errors = [ln for ln in text.splitlines() if ln.startswith("error:")]
         assert len(errors) == 1 and len(text.strip().splitlines()[-1]) == len(errors[0]), text
@@ -156,5 +160,5 @@ def test_run_to_the_end(videos, tmp_path, name):
     out = tmp_path / "out"
     res = _invoke("run", video, "--projection", "none", "--config", videos["config"], "--out", out, "-q")
     _check(res, out, failed_kinds=(), names=(video.name, ".parquet", "--", "["))
-    if name == "long":
-        assert res.exit_code == 0 and (out / "report.html").exists(), res.output
+    if name == "long":  # an undamped swing: the classic fit's damping exponent is not determined -> exit 1
+        assert res.exit_code in (0, 1) and (out / "report.html").exists(), res.output

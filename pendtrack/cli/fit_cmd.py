@@ -36,7 +36,8 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     a Parquet file or a CSV/whitespace table of t, theta or t, x, y), differentiated first with
     the [kinematics] settings.
 
-    Exits 1 (after writing the files) if a fit did not converge.
+    Exit code: 0 every fit converged and no parameter is flagged; 1 the files are written but a
+    fit did not converge or has a flagged parameter (fit.json "flags"); 2 a user error.
     """
     from pendtrack.stages.fit import fit_stage
 
@@ -47,14 +48,35 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     if res.skipped:
         click.echo(f"{res.path} is up to date")
     for name, f in (res.facts.get("models") or {}).items():
-        state = "converged" if f.get("converged") else "NOT CONVERGED"
-        click.echo(f"{name}: {state}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
+        click.echo(f"{name}: {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
                    f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
                    f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s, "
                    f"BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
     if not res.skipped:
         click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
-    failed = res.facts.get("not_converged") or []
-    if failed:
-        click.echo(f"warning: {', '.join(failed)} did not converge (see the fit_<model>.json 'message')", err=True)
+    exit_on_fit_problems(res.facts)
+
+
+def fit_state(f: dict[str, Any]) -> str:
+    """One model's verdict in words: only a converged fit without flags is called converged."""
+    if not f.get("converged"):
+        state = "NOT CONVERGED"
+    elif f.get("flags"):
+        state = f"FLAGGED ({', '.join(f['flags'])})"
+    else:
+        state = "converged"
+    if f.get("stopped"):
+        state += f" [{f['stopped']}: {f.get('n_starts')} of {f.get('n_starts_planned')} starts]"
+    return state
+
+
+def exit_on_fit_problems(facts: dict[str, Any]) -> None:
+    """The exit rule of `fit` and `run`: exit 1, after one warning per model, if a fit is not
+    trustworthy (not converged or a parameter flagged); return otherwise (exit 0)."""
+    from pendtrack.stages.fit import fit_problems
+
+    problems = fit_problems(facts)
+    for name, why in problems.items():
+        click.echo(f"warning: the {name} fit {why} (see fit_{name}.json)", err=True)
+    if problems:
         sys.exit(1)

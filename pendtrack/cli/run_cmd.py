@@ -26,7 +26,11 @@ def run(video: str, models: tuple[str, ...], roi: tuple[int, ...] | None, marker
     """Run the whole pipeline on VIDEO: track, angle, kinematics, fit.
 
     The flags are those of `track`, `angle` and `kinematics` (and the config keys of the same names).
+
+    Exit code (as `fit`): 0 every fit converged and no parameter is flagged; 1 every file is
+    written but a fit did not converge or has a flagged parameter; 2 a user error.
     """
+    from pendtrack.cli.fit_cmd import exit_on_fit_problems
     from pendtrack.stages.run import run_pipeline
 
     config = with_lens_and_video(common.config, fov_deg=fov_deg, fixed_pixels=fixed_pixels, projection=projection,
@@ -40,3 +44,4 @@ def run(video: str, models: tuple[str, ...], roi: tuple[int, ...] | None, marker
         state = "up to date" if stage.skipped else "done"
         click.echo(f"{name:<11} {state:<10} {', '.join(str(p) for p in stage.paths)}")
     click.echo(f"results in {result.out_dir}/")
+    exit_on_fit_problems(result.stages["fit"].facts)

@@ -42,6 +42,13 @@ SHAPE_GRID: dict[str, tuple[float, ...]] = {
 }
 T0_OFFSETS = (0.5, 2.0, 8.0, 30.0)  # t_start - t0 for the C4/(t - t0) term [s]
 INTEGRAL_LAG_PERIODS = 1.0  # span of the integrated equation of motion, in periods 2 pi/Omega0_hat
+# On a gappy record (samples not ok in runs) few spans of a whole period are gap-free: the span is
+# then halved, down to this share of a period (shorter spans only lose damping signal to noise: the
+# estimates are start centres, which the output-error fit refines) ...
+MIN_LAG_PERIODS = 1.0 / 16
+# ... until at least this many gap-free spans per parameter (a least-squares fit of k parameters
+# from fewer equations is undetermined, and its standard errors divide by m - k)
+MIN_ROWS_PER_PARAM = 4
 # exponents are kept in these ranges by the equation-error polish (noise can push them far out)
 SHAPE_LIMITS = {"p": (0.2, 6.0), "p_f": (0.2, 6.0), "beta": (0.02, 1.98)}
 
@@ -133,7 +140,8 @@ def summarize(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.nda
         raise FitError("cannot estimate Omega0 from the turning points", path=source)
     turns = _dedupe(tp.t, 0.1 * math.pi / w0)
     if turns.size < MIN_HALF_SWINGS:
-        raise FitError(f"no oscillation to fit ({turns.size} distinct turning points)", path=source)
+        raise FitError(f"no oscillation to fit ({turns.size} distinct turning points, need at least {MIN_HALF_SWINGS})",
+                       path=source)
     return DataSummary(omega0_hat=w0, omega0_source="kinematics", turning_times=turns, amplitude=amplitude,
                        theta_init=float(theta[0]), omega_init=float(omega[0]), n=n)
 
@@ -217,19 +225,23 @@ def equation_error_estimates(model: Any, t: np.ndarray, theta: np.ndarray, omega
     Estimates
     """
     use = np.ones(t.size, bool) if use is None else np.asarray(use, bool)
-    h = float((t[-1] - t[0]) / (t.size - 1))
-    span = INTEGRAL_LAG_PERIODS * 2.0 * math.pi / omega0_hat if lag_s is None else lag_s
-    lag = max(1, int(round(span / h)))
-    if t.size <= lag + 1:
+    names = tuple(model.param_names)
+    if t.size < 3 or not t[-1] > t[0]:
         raise FitError(f"record too short for the initial estimates of model '{model.name}'")
-    bad = np.concatenate(([0], np.cumsum(~use)))
-    rows = (bad[lag + 1:] - bad[:-lag - 1]) == 0  # every sample of [i, i + lag] is real
+    h = float((t[-1] - t[0]) / (t.size - 1))
+    period = 2.0 * math.pi / omega0_hat
+    span = INTEGRAL_LAG_PERIODS * period if lag_s is None else lag_s
+    lag, rows = _gap_free_spans(use, h, span, min_span=min(span, MIN_LAG_PERIODS * period),
+                                min_rows=MIN_ROWS_PER_PARAM * max(len(names), 1))
+    if lag is None:
+        raise FitError(f"too few gap-free stretches for the initial estimates of model '{model.name}': fewer than "
+                       f"{MIN_ROWS_PER_PARAM * max(len(names), 1)} spans of {MIN_LAG_PERIODS * period:.3g} s "
+                       f"without a missing sample ({100 * use.mean():.0f} % of the samples usable)")
     d_omega = (omega[lag:] - omega[:-lag])[rows]
 
     def integ(a: np.ndarray) -> np.ndarray:
         return _lag_integral(a, h, lag)[rows]
 
-    names = tuple(model.param_names)
     coef_names = _coefficient_names(model)
     shape_names = _shape_names(model)
     t_first = float(t[0])
@@ -284,20 +296,49 @@ def equation_error_estimates(model: Any, t: np.ndarray, theta: np.ndarray, omega
     return _polish(names, best[1], resid_fn, (lo, hi))
 
 
+def _gap_free_spans(use: np.ndarray, h: float, span: float, *, min_span: float,
+                    min_rows: int) -> tuple[int | None, np.ndarray]:
+    """The longest lag (from ``span`` [s], halved down to ``min_span`` [s]) with ``min_rows`` gap-free spans.
+
+    Returns the lag [samples] and the mask of the spans ``[i, i + lag]`` whose samples are all
+    real, or ``(None, empty)`` if even ``min_span`` leaves fewer than ``min_rows``.
+    """
+    bad = np.concatenate(([0], np.cumsum(~use)))
+    while True:
+        lag = max(1, int(round(span / h)))
+        if use.size > lag + 1:
+            rows = (bad[lag + 1:] - bad[:-lag - 1]) == 0  # every sample of [i, i + lag] is real
+            if int(rows.sum()) >= min_rows:
+                return lag, rows
+        if span <= min_span or lag == 1:
+            return None, np.zeros(0, bool)
+        span = max(0.5 * span, min_span)
+
+
 def _polish(names: tuple[str, ...], start: Mapping[str, float], resid: Any,
             bounds: tuple[np.ndarray, np.ndarray]) -> Estimates:
-    """Nonlinear equation-error least squares over every parameter from ``start``."""
+    """Nonlinear equation-error least squares over every parameter from ``start``.
+
+    Every division is guarded: no residual (no gap-free span) or no more residuals than
+    parameters give NaN scales and rms, never a ZeroDivisionError (the caller checks the spans).
+    """
     lo, hi = bounds
     x0 = np.clip(np.array([start[n] for n in names]), lo, hi)
+    r0 = resid(x0)
+    m, k = r0.size, x0.size
+    if m == 0:
+        return Estimates(values=dict(zip(names, (float(v) for v in x0))), scales=dict.fromkeys(names, math.nan),
+                         rms=math.nan)
     res = least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200 * len(names))
-    x = res.x if res.cost <= 0.5 * float(resid(x0) @ resid(x0)) else x0
+    x = res.x if res.cost <= 0.5 * float(r0 @ r0) else x0
     r = resid(x)
-    m, k = r.size, x.size
-    s2 = float(r @ r) / max(m - k, 1)
-    try:
-        cov = s2 * np.linalg.pinv(res.jac.T @ res.jac)
-        scale = np.sqrt(np.abs(np.diag(cov)))
-    except (np.linalg.LinAlgError, ValueError):
-        scale = np.full(k, np.nan)
+    scale = np.full(k, np.nan)
+    if m > k:
+        s2 = float(r @ r) / (m - k)
+        try:
+            cov = s2 * np.linalg.pinv(res.jac.T @ res.jac)
+            scale = np.sqrt(np.abs(np.diag(cov)))
+        except (np.linalg.LinAlgError, ValueError):
+            pass
     return Estimates(values=dict(zip(names, (float(v) for v in x))),
                      scales=dict(zip(names, (float(v) for v in scale))), rms=math.sqrt(float(r @ r) / m))

@@ -36,6 +36,7 @@ from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.estimate import estimate
+from pendtrack.fitting.multistart import Deadlines
 from pendtrack.fitting.problem import Simulator
 from pendtrack.fitting.record import Record
 from pendtrack.fitting.refine import refine
@@ -118,7 +119,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     FitError
         Too few samples, none usable, no oscillation, time stamps not uniform, bad options.
     """
-    t_wall = time.perf_counter()
+    t_wall = time.monotonic()
     options = FitConfig() if options is None else options
     model_options = ModelsConfig() if model_options is None else model_options
     seed = options.seed if seed is None else seed
@@ -128,12 +129,14 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                     source=source)
     setup = estimate(model, record, options=options, model_options=model_options, fixed=fixed, initial=initial,
                      simulator=simulator, method=method)
+    deadlines = Deadlines.start(options.time_budget_s, options.time_reserve, now=t_wall)
     found = search(setup, options=options, seed=seed, workers=workers, extra_starts=extra_starts,
-                   on_progress=on_progress)
-    best = refine(setup.problem, found.best, options=options)
-    unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress)
+                   on_progress=on_progress, deadline=deadlines.search)
+    best = refine(setup.problem, found.best, options=options, deadline=deadlines.refine())
+    unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress,
+                 deadline=deadlines.end())
     return build_result(setup, found, best, unc, options=options, model_options=model_options, seed=seed,
-                        runtime_s=time.perf_counter() - t_wall)
+                        runtime_s=time.monotonic() - t_wall)
 
 
 __all__ = ["check_options", "fit_model"]

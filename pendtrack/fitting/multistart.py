@@ -22,6 +22,8 @@ warm the simulator once (numba kernels load from their ``cache=True`` cache or c
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from dataclasses import dataclass
@@ -38,6 +40,60 @@ RUNG_ITERATIONS = 12  # Levenberg-Marquardt iterations per shorter window (enoug
 FINAL_ITERATIONS = 100  # cap on the whole window
 SETTLED = 1e-6  # a budget-stopped fit counts as converged if its last 20 % gained less (relative cost):
 # with N ~ 1e4 samples that is a move of ~0.1 standard error, well below the statistical precision
+TIME_BUDGET = "time budget"  # what a fit stopped by ``[fit] time_budget_s`` records as ``stopped``
+REFINE_SHARE = 0.75  # share of the budget's reserve (``[fit] time_reserve``) that refines the best start
+
+
+def past(deadline: float) -> bool:
+    """``time.monotonic()`` has reached ``deadline`` [s] (``math.inf``: never)."""
+    return deadline < math.inf and time.monotonic() >= deadline
+
+
+@dataclass(frozen=True)
+class Deadlines:
+    """When each step of a fit must stop (``time.monotonic()`` [s]; ``math.inf``: no budget).
+
+    ``[fit] time_budget_s`` B from the fit's start t0: the search stops launching and running
+    starts at ``t0 + (1 - reserve) B``; the rest, the reserve, is kept for the best start:
+    :data:`REFINE_SHARE` of it to refine it (the classic model's best start may need ~4000
+    simulations, ~15 s on a 60 s record), the rest for its uncertainties (profile sigmas, bootstrap). Each of
+    these gets its share even when the step before overran (a pool's start, a slow first
+    simulation), so the best start is always finished. The sandwich standard errors are
+    always computed (a few Jacobians).
+    """
+
+    t0: float = 0.0
+    budget_s: float = 0.0
+    reserve: float = 0.5
+
+    @classmethod
+    def start(cls, budget_s: float, reserve: float, *, now: float | None = None) -> "Deadlines":
+        """Deadlines of a fit starting ``now`` (default ``time.monotonic()``) with a budget of ``budget_s`` [s].
+
+        ``budget_s <= 0`` means no budget; ``reserve`` is the share kept after the search [1].
+        """
+        return cls(t0=time.monotonic() if now is None else now, budget_s=float(budget_s), reserve=float(reserve))
+
+    @property
+    def search(self) -> float:
+        """End of the search [s]."""
+        if not self.budget_s > 0:
+            return math.inf
+        return self.t0 + (1.0 - self.reserve) * self.budget_s
+
+    def refine(self, now: float | None = None) -> float:
+        """End of the refine step when it begins ``now``: its share of the reserve, at least [s]."""
+        return self._share(1.0 - (1.0 - REFINE_SHARE) * self.reserve, REFINE_SHARE * self.reserve, now)
+
+    def end(self, now: float | None = None) -> float:
+        """End of the uncertainty step when it begins ``now``: the budget, or its share of the reserve [s]."""
+        return self._share(1.0, (1.0 - REFINE_SHARE) * self.reserve, now)
+
+    def _share(self, until: float, share: float, now: float | None) -> float:
+        if not self.budget_s > 0:
+            return math.inf
+        now = time.monotonic() if now is None else now
+        return max(self.t0 + until * self.budget_s, now + share * self.budget_s)
 
 
 @dataclass(frozen=True)
@@ -58,6 +114,8 @@ class StartOutcome:
         Residual evaluations over all windows, Jacobian ones included.
     message : str
         The final least-squares message.
+    timed_out : bool
+        Stopped by its deadline (the fit's time budget) before it ended.
     """
 
     index: int
@@ -67,6 +125,7 @@ class StartOutcome:
     success: bool
     nfev: int
     message: str
+    timed_out: bool = False
 
 
 def window_ladder(t_start: float, t_end: float, first_end: float) -> tuple[float, ...]:
@@ -128,10 +187,13 @@ class _Tracker:
     problem's steps (:meth:`FitProblem.fd_steps`), evaluated through the same counter.
     """
 
-    def __init__(self, problem: FitProblem, budget: int, *, central: bool = False) -> None:
+    def __init__(self, problem: FitProblem, budget: int, *, central: bool = False,
+                 deadline: float = math.inf) -> None:
         self.problem = problem
         self.budget = budget
         self.central = central
+        self.deadline = deadline  # time.monotonic() [s] after which it stops (after its first evaluation)
+        self.timed_out = False
         self.calls = 0
         self.best_x: np.ndarray | None = None
         self.best_r: np.ndarray | None = None
@@ -140,6 +202,9 @@ class _Tracker:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         if self.calls >= self.budget:
+            raise _Budget
+        if self.calls and past(self.deadline):
+            self.timed_out = True
             raise _Budget
         self.calls += 1
         r = self.problem.residuals(x)
@@ -177,7 +242,7 @@ class _Tracker:
 
 
 def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float], *, index: int = 0,
-              max_nfev: int | None = None, central: bool = False) -> StartOutcome:
+              max_nfev: int | None = None, central: bool = False, deadline: float = math.inf) -> StartOutcome:
     """Least squares from ``x0`` over each window of the ladder, warm-starting each from the last.
 
     Levenberg-Marquardt with geodesic acceleration (:func:`pendtrack.fitting.lm.levenberg_marquardt`),
@@ -199,6 +264,9 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
         Cap on the whole window, in Jacobians' worth of evaluations (default ``FINAL_ITERATIONS``).
     central : bool
         Central-difference Jacobians (twice the simulations, more accurate slopes).
+    deadline : float
+        ``time.monotonic()`` [s] at which the fit stops where it is (after at least one
+        evaluation), its cost then taken on the whole window; default none.
 
     Returns
     -------
@@ -209,20 +277,26 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
     calls = 0
     tracker = None
     status, message = 0, ""
+    whole = False  # the last tracker ran on the whole window
     for k, end in enumerate(window_ends):
         last = k == len(window_ends) - 1
         sub = problem if last else problem.restrict(end)
         if sub.n < 3 * p:
             continue
+        if tracker is not None and tracker.timed_out:
+            break
         tol = FINAL_TOL if last else RUNG_TOL
         iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
-        tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central)
+        tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline)
+        whole = last
         try:
             res = levenberg_marquardt(tracker, tracker.jac, x, lower=problem.lower, upper=problem.upper,
                                       ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
             status, message = res.status, res.message
         except _Budget:
-            if tracker.settled:
+            if tracker.timed_out:
+                status, message = 0, f"stopped by the {TIME_BUDGET} after {calls + tracker.calls} evaluations"
+            elif tracker.settled:
                 status, message = 5, f"cost settled (budget of {tracker.calls} evaluations spent)"
             else:
                 status, message = 0, f"stopped after {tracker.calls} evaluations"
@@ -232,10 +306,14 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
         x = tracker.best_x
     if tracker is None or tracker.best_r is None:
         raise ValueError("every window is too short for the number of parameters")
-    r = tracker.best_r
-    cost = sumsq(r)
+    timed_out = tracker.timed_out
+    if whole:
+        cost = sumsq(tracker.best_r)
+    else:  # stopped by the deadline on a shorter window: the cost on the whole window, as for every start
+        cost = sumsq(problem.residuals(x))
+        calls += 1
     return StartOutcome(index=index, x0=np.asarray(x0, dtype=float), x=x, cost=cost,
-                        success=status > 0, nfev=calls, message=message)
+                        success=status > 0 and not timed_out, nfev=calls, message=message, timed_out=timed_out)
 
 
 def _warm(problem: FitProblem, x: np.ndarray) -> None:
@@ -248,15 +326,17 @@ def _warm(problem: FitProblem, x: np.ndarray) -> None:
 
 
 def _task(problem: FitProblem, x0: np.ndarray, window_ends: tuple[float, ...], index: int,
-          max_nfev: int | None) -> StartOutcome:
-    return local_fit(problem, x0, window_ends, index=index, max_nfev=max_nfev)
+          max_nfev: int | None, deadline: float) -> StartOutcome | None:
+    if index > 0 and past(deadline):  # queued past the deadline: not run (task 0 always runs)
+        return None
+    return local_fit(problem, x0, window_ends, index=index, max_nfev=max_nfev, deadline=deadline)
 
 
 Task = tuple[FitProblem, np.ndarray, Sequence[float]]
 
 
 def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None = None,
-              on_progress: Callable[[int], None] | None = None) -> list[StartOutcome]:
+              on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> list[StartOutcome]:
     """Run :func:`local_fit` on ``(problem, x0, window_ends)`` tasks, in parallel when ``workers != 1``.
 
     Parameters
@@ -270,36 +350,48 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
         Cap on iterations per window.
     on_progress : callable, optional
         Called with 1 after each finished task.
+    deadline : float
+        ``time.monotonic()`` [s] after which no task starts and running ones stop where they
+        are (:func:`local_fit`); task 0 always runs. Default none.
 
     Returns
     -------
-    list of StartOutcome, in task order (``index`` = task number).
+    list of StartOutcome, in task order (``index`` = task number): the tasks that ran, a
+    prefix of ``tasks`` unless the deadline passed.
     """
     n_proc = worker_count(workers, len(tasks))
     outcomes: list[StartOutcome] = []
     if n_proc <= 1:
         for i, (prob, x0, ends) in enumerate(tasks):
-            outcomes.append(local_fit(prob, x0, tuple(ends), index=i, max_nfev=max_nfev))
+            if i > 0 and past(deadline):
+                break
+            outcomes.append(local_fit(prob, x0, tuple(ends), index=i, max_nfev=max_nfev, deadline=deadline))
             if on_progress:
                 on_progress(1)
         return outcomes
     with process_pool(n_proc, initializer=_warm, initargs=(tasks[0][0], tasks[0][1])) as pool:
-        futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev)
+        futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev, deadline)
                    for i, (prob, x0, ends) in enumerate(tasks)]
         for fut in as_completed(futures):
-            outcomes.append(fut.result())
+            if past(deadline):  # the queued tasks are not started
+                for other in futures:
+                    other.cancel()
+            out = None if fut.cancelled() else fut.result()
+            if out is None:
+                continue
+            outcomes.append(out)
             if on_progress:
                 on_progress(1)
     return sorted(outcomes, key=lambda o: o.index)
 
 
 def run_starts(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *, workers: int = 0,
-               max_nfev: int | None = None,
-               on_progress: Callable[[int], None] | None = None) -> list[StartOutcome]:
+               max_nfev: int | None = None, on_progress: Callable[[int], None] | None = None,
+               deadline: float = math.inf) -> list[StartOutcome]:
     """Run :func:`local_fit` from every start (rows of ``starts``) over the ladder ``window_ends`` [s].
 
-    See :func:`run_tasks` for ``workers``, ``max_nfev`` and ``on_progress``.
+    See :func:`run_tasks` for ``workers``, ``max_nfev``, ``on_progress`` and ``deadline``.
     """
     ends = tuple(float(e) for e in window_ends)
     return run_tasks([(problem, x0, ends) for x0 in starts], workers=workers, max_nfev=max_nfev,
-                     on_progress=on_progress)
+                     on_progress=on_progress, deadline=deadline)

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from pendtrack.fitting.multistart import StartOutcome, local_fit
+from pendtrack.fitting.multistart import StartOutcome, local_fit, past
 from pendtrack.fitting.problem import FitProblem
 
 PROFILE_XTOL = 2e-4  # Brent's tolerance on the profiled parameter (beta's standard error is ~3e-2)
@@ -28,7 +28,7 @@ INNER_ITERATIONS = 30  # budget of each inner fit, in Jacobians' worth
 SLIP_RATIO = 1.5  # an inner fit ending above this times the best cost has slipped a period
 
 
-def profile_polish(problem: FitProblem, best: StartOutcome, along: str) -> StartOutcome:
+def profile_polish(problem: FitProblem, best: StartOutcome, along: str, *, deadline: float = math.inf) -> StartOutcome:
     """The best of ``best`` and a fit finished by minimising the profile cost over ``along``.
 
     Parameters
@@ -39,6 +39,8 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str) -> Start
         The best start so far (its ``x`` in ``problem.names`` order).
     along : str
         The parameter to profile over (a fitted name with finite bounds, e.g. ``"beta"``).
+    deadline : float
+        ``time.monotonic()`` [s] after which no inner fit starts (the fit's time budget).
 
     Returns
     -------
@@ -67,13 +69,13 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str) -> Start
         value = min(max(float(value), lo), hi)
         if value in done:
             return done[value][0]
-        if len(done) >= PROFILE_MAX_INNER:
+        if len(done) >= PROFILE_MAX_INNER or past(deadline):
             return math.inf
         sub = problem.with_fixed({along: value})
-        out = local_fit(sub, warm_start(value), (problem.t_end,), max_nfev=INNER_ITERATIONS)
+        out = local_fit(sub, warm_start(value), (problem.t_end,), max_nfev=INNER_ITERATIONS, deadline=deadline)
         calls[0] += out.nfev
         if not out.cost <= SLIP_RATIO * best.cost:  # a phase slip: once more from the best start
-            again = local_fit(sub, best.x[rest], (problem.t_end,), max_nfev=INNER_ITERATIONS)
+            again = local_fit(sub, best.x[rest], (problem.t_end,), max_nfev=INNER_ITERATIONS, deadline=deadline)
             calls[0] += again.nfev
             out = again if again.cost < out.cost else out
         cost = out.cost if np.isfinite(out.cost) else math.inf
@@ -90,24 +92,26 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str) -> Start
         return best
     if b_star not in done:
         profile(b_star)
+    if not done:
+        return best
     b_star = min(done, key=lambda v: done[v][0])
     x_star = np.empty_like(best.x)
     x_star[j] = b_star
     x_star[rest] = done[b_star][1]
-    final = local_fit(problem, x_star, (problem.t_end,), index=best.index)
+    final = local_fit(problem, x_star, (problem.t_end,), index=best.index, deadline=deadline)
     nfev = best.nfev + calls[0] + final.nfev
     if not final.cost <= best.cost:
         return StartOutcome(index=best.index, x0=best.x0, x=best.x, cost=best.cost, success=best.success,
                             nfev=nfev, message=best.message)
     return StartOutcome(index=best.index, x0=best.x0, x=final.x, cost=final.cost, success=final.success,
-                        nfev=nfev, message=f"{final.message} (after a profile over {along})")
+                        nfev=nfev, timed_out=final.timed_out, message=f"{final.message} (after a profile over {along})")
 
 
 PROFILE_STEPS = 2  # inner fits per side of each parameter: at +-stderr, then at the refined point
 
 
 def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndarray, naive: np.ndarray,
-                   params: list[str]) -> tuple[np.ndarray, np.ndarray]:
+                   params: list[str], *, deadline: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
     """Profile-likelihood standard errors below and above the best fit, per parameter.
 
     For parameter j the profile cost ``c_j(v) = min over the others`` is compared with the
@@ -131,6 +135,8 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
         Textbook standard errors of every fitted parameter.
     params : list of str
         The names to profile (others get NaN).
+    deadline : float
+        ``time.monotonic()`` [s] after which no inner fit starts: the sigmas not reached stay NaN.
 
     Returns
     -------
@@ -158,12 +164,18 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
             delta = min(float(stderr[j]), 0.999 * float(room))
             sigma = math.nan
             for _ in range(PROFILE_STEPS):
+                if past(deadline):
+                    break
                 if not delta > 0:
                     sigma = math.nan if room <= 0 else sigma  # on its bound: no interval that side
                     break
                 v = float(x[j] + side * delta)
                 x0 = np.clip(x + cov[:, j] / cov[j, j] * (side * delta), problem.lower, problem.upper)[rest]
-                inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS)
+                inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS,
+                                  deadline=deadline)
+                if inner.timed_out:  # an unfinished inner fit overstates the rise: no sigma
+                    sigma = math.nan
+                    break
                 rise = math.sqrt(max(float(inner.cost) - cost, 0.0))
                 if not (np.isfinite(inner.cost) and rise > 0):
                     sigma = math.inf

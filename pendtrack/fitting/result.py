@@ -9,7 +9,18 @@ plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u
 ``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
 ``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
 ``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``estimates``, ``covariance``,
-``start_costs``, ``message``. Non-finite numbers are written as ``null``.
+``start_costs``, ``message``, ``n_starts_planned``, ``stopped``, ``flags``, ``trustworthy``.
+Non-finite numbers are written as ``null``.
+
+Budget and flags
+----------------
+``stopped`` is ``null``, or ``"time budget"`` when ``[fit] time_budget_s`` ended the search early
+(``n_starts`` of ``n_starts_planned`` ran; ``u_paper`` and ``n_accepted`` are over the starts that
+ran) or cut the refine or uncertainty steps short (``message`` says which). ``flags`` maps a
+parameter to why its value cannot be taken as a measurement (:func:`plausibility_flags`: at an
+optimiser bound, further from the record's time scale than physics allows, not determined by
+the data). ``converged`` keeps its meaning (the optimiser's verdict); ``trustworthy`` is
+``converged`` and no flag: what the CLI and the report call a good fit.
 
 Information criteria
 --------------------
@@ -29,6 +40,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pendtrack.errors import FitError
+from pendtrack.fitting.estimate import _floor
+from pendtrack.fitting.multistart import TIME_BUDGET
 
 if TYPE_CHECKING:
     from pendtrack.config import FitConfig, ModelsConfig
@@ -38,6 +51,82 @@ if TYPE_CHECKING:
     from pendtrack.fitting.uncertainty import Uncertainty
 
 STATE_NAMES = ("theta0", "omega0")
+
+# --- plausibility flags (plausibility_flags) ---
+AT_BOUND_REL = 1e-6  # a value this close (relative to max(1, |bound|)) to an optimiser bound sits on it
+# t0 of the C4 omega/(t - t0) damping: 1/(t - t0) changes over a record of length T by the factor
+# 1 + T/(t_start - t0); with t0 more than this many record lengths before the start that is < 10 %,
+# the term is a constant linear damping over the record and t0 is not measured (OPA's t0 = -1154 s
+# on a 60 s record: a damping that fell off at the time of the apparatus's set-up, not of the swing)
+T0_MAX_RECORDS = 10.0
+# a standard error above this times the value's magnitude (for t0: its distance before the record):
+# the value lies within half a standard error of 0, as close to 0 as to three times itself, so the
+# data do not measure the parameter (fractional G2 = 150 +- 2776 lies 0.05 sigma from 0: any value
+# fits as well). Between 0.5 and 1 sigma a weak effect is still a (poor) measurement: on a 6 s
+# record the standard model's C0 comes out 0.08 +- 0.12 for a true 0.02. Judged only for values above the
+# parameter's visibility floor (``floors``: 1e-3 Omega0^k, below which a term has no visible
+# effect on a record of minutes): a coefficient below it is "absent", a valid result with its
+# error bar as an upper limit (e.g. Ca = 0.0007 +- 0.001), not a claimed effect the data cannot carry.
+UNDETERMINED_RATIO = 2.0
+
+
+def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray, lower: np.ndarray,
+                       upper: np.ndarray, *, t_start: float, t_end: float,
+                       floors: Mapping[str, float]) -> dict[str, str]:
+    """Why a fitted model parameter's value cannot be taken as a measurement, by name.
+
+    Rules (constants above, the physics reason next to each):
+
+    * **at an optimiser bound**: the limit of an exponent, of ``beta`` in (0, 2), of ``t0``'s
+      search range (1e4 s before the record, or 1 ms before it) -- the optimum lies beyond or on
+      the edge of the model's domain, and its standard error means nothing. A coefficient at its
+      physical lower bound 0 is not flagged: 0 is a physical value (the term is absent from the
+      data), not an artefact of the optimiser;
+    * **t0 far before the record**: more than :data:`T0_MAX_RECORDS` record lengths;
+    * **not determined**: a non-finite standard error, or, for a value above its visibility
+      floor, one above :data:`UNDETERMINED_RATIO` times the magnitude of the value (for ``t0``:
+      of ``t_start - t0``).
+
+    The initial state (``theta0``, ``omega0``) is not judged: a release from rest has
+    ``omega0`` ~ 0 with any relative error.
+
+    Parameters
+    ----------
+    names : tuple of str
+        Fitted names (``x``, ``stderr``, ``lower``, ``upper`` in this order).
+    x, stderr, lower, upper : ndarray
+        Values, sandwich standard errors and optimiser bounds [each parameter's unit].
+    t_start, t_end : float
+        The fitted window [s].
+    floors : mapping
+        Name -> visibility floor of the value [its unit] (missing: 0).
+    """
+    flags: dict[str, str] = {}
+    duration = max(t_end - t_start, 0.0)
+    for j, name in enumerate(names):
+        if name in STATE_NAMES:
+            continue
+        v, se, lo, hi = float(x[j]), float(stderr[j]), float(lower[j]), float(upper[j])
+        for bound, side in ((lo, "lower"), (hi, "upper")):
+            if math.isfinite(bound) and bound != 0.0 and abs(v - bound) <= AT_BOUND_REL * max(1.0, abs(bound)):
+                flags[name] = f"at its {side} bound {bound:.6g} (the optimum lies on the edge of the model's range)"
+        if name in flags:
+            continue
+        if name == "t0":
+            before = t_start - v
+            if before > T0_MAX_RECORDS * duration:
+                flags[name] = (f"far before the record: {before:.4g} s before its start, > {T0_MAX_RECORDS:g} record "
+                               f"lengths ({duration:.3g} s): 1/(t - t0) is constant over the record")
+                continue
+            scale = before
+        else:
+            scale = abs(v)
+        if not math.isfinite(se):
+            flags[name] = "not determined by the data (no finite standard error)"
+        elif scale > floors.get(name, 0.0) and se > UNDETERMINED_RATIO * scale:
+            flags[name] = (f"not determined by the data: standard error {se:.3g} > "
+                           f"{'its distance before the record' if name == 't0' else '|value|'} {scale:.3g}")
+    return flags
 
 
 def _num(x: Any) -> float | None:
@@ -147,6 +236,12 @@ class FitResult:
         ``u_paper`` or a bootstrap.
     message : str
         Why the fit did not converge, or the optimiser's last message, plus notes.
+    n_starts_planned : int
+        Starts planned; ``n_starts`` of them ran (fewer when the time budget ran out).
+    stopped : str
+        ``""``, or ``"time budget"`` if ``[fit] time_budget_s`` cut a step short (module docstring).
+    flags : mapping
+        Parameter name -> why its value is not a measurement (:func:`plausibility_flags`).
     """
 
     model: str
@@ -174,6 +269,9 @@ class FitResult:
     full_history: bool = False
     stderr_reliable: bool = True
     message: str = ""
+    n_starts_planned: int = 0
+    stopped: str = ""
+    flags: Mapping[str, str] = field(default_factory=dict)
 
     # ---- access --------------------------------------------------------------------------
     @property
@@ -190,6 +288,11 @@ class FitResult:
     def omega0(self) -> float:
         """Fitted initial angular velocity at ``window[0]`` [rad/s]."""
         return self.initial_state["omega0"].value
+
+    @property
+    def trustworthy(self) -> bool:
+        """Converged and no parameter flagged: a fit whose values can be quoted."""
+        return bool(self.converged and not self.flags)
 
     @property
     def n_params(self) -> int:
@@ -242,6 +345,10 @@ class FitResult:
                            "matrix": [[_num(x) for x in row] for row in cov.tolist()]},
             "start_costs": [_num(c) for c in np.asarray(self.start_costs, dtype=float)],
             "message": self.message,
+            "n_starts_planned": int(self.n_starts_planned or self.n_starts),
+            "stopped": self.stopped or None,
+            "flags": dict(self.flags),
+            "trustworthy": self.trustworthy,
         }
 
 
@@ -288,11 +395,16 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
     if not follows:
         reasons.append(f"the model does not follow the oscillation (rms {rms:.3g} rad)")
     notes = []
+    if found.stopped:
+        notes.append(f"{found.stopped} reached: {len(found.outcomes)} of {found.n_planned} starts ran "
+                     f"(u_paper and n_accepted over those)")
+    if unc.cut_short:
+        notes.append(unc.cut_short)
     if not unc.reliable and cov_ok:
         notes.append(f"standard errors unreliable: they change by a factor {math.exp(unc.step_spread):.2g} with the "
                      "finite-difference step (the solver is not smooth in the parameters)")
     start_costs = found.costs.copy()
-    start_costs[best.index] = best.cost if np.isfinite(best.cost) else np.inf  # the refined best
+    start_costs[found.best_position] = best.cost if np.isfinite(best.cost) else np.inf  # the refined best
 
     values = problem.full(x)
     fitted = dict(zip(names, range(k)))
@@ -319,5 +431,9 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         hac_lag=unc.hac_lag, covariance=unc.covariance, fitted_names=names, start_costs=start_costs,
         memory_s=float(model_options.memory_s), full_history=bool(model_options.full_history),
         message="; ".join(reasons + notes) if reasons else "; ".join([best.message] + notes),
-        stderr_reliable=unc.reliable,
+        stderr_reliable=unc.reliable, n_starts_planned=found.n_planned or len(found.outcomes),
+        stopped=found.stopped or (TIME_BUDGET if best.timed_out or unc.cut_short else ""),
+        flags=plausibility_flags(names, x, unc.stderr, problem.lower, problem.upper, t_start=problem.t_start,
+                                 t_end=float(problem.t[-1]),
+                                 floors={n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names}),
     )

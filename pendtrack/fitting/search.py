@@ -9,6 +9,7 @@ phase are pinned on three periods before the long record is seen), in worker pro
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -17,7 +18,8 @@ import numpy as np
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import Setup
-from pendtrack.fitting.multistart import StartOutcome, draw_starts, inside_bounds, run_starts, window_ladder
+from pendtrack.fitting.multistart import (TIME_BUDGET, StartOutcome, draw_starts, inside_bounds, run_starts,
+                                          window_ladder)
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,17 +36,28 @@ class Search:
         Final costs on the whole window (non-finite ones as inf).
     best : StartOutcome
         The start with the lowest cost.
+    n_planned : int
+        Starts planned (drawn plus extra); ``len(outcomes)`` of them ran.
+    stopped : str
+        ``""``, or ``"time budget"`` if the search's deadline stopped a start or kept some from running.
     """
 
     outcomes: list[StartOutcome]
     xs: np.ndarray
     costs: np.ndarray
     best: StartOutcome
+    n_planned: int = 0
+    stopped: str = ""
+
+    @property
+    def best_position(self) -> int:
+        """Position of :attr:`best` in :attr:`outcomes` (its ``index`` is the start number)."""
+        return next(i for i, o in enumerate(self.outcomes) if o.index == self.best.index)
 
 
 def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
            extra_starts: Sequence[Mapping[str, float]] = (),
-           on_progress: Callable[[int], None] | None = None) -> Search:
+           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> Search:
     """Multi-start growing-window least squares from the start ranges of ``setup`` (step 2 of a fit).
 
     Parameters
@@ -62,6 +75,9 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
         left out take the centre's value).
     on_progress : callable, optional
         Called with 1 after each start.
+    deadline : float
+        ``time.monotonic()`` [s] after which no start begins and running ones stop where they
+        are (:class:`pendtrack.fitting.multistart.Deadlines`); start 0, the estimate, always runs.
     """
     problem = setup.problem
     names = problem.names
@@ -77,7 +93,9 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end) if options.ladder
             else (problem.t_end,))
     outcomes = run_starts(problem, starts, ends, workers=workers, max_nfev=options.start_budget,
-                          on_progress=on_progress)
+                          on_progress=on_progress, deadline=deadline)
     xs = np.array([o.x for o in outcomes])
     costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])
-    return Search(outcomes=outcomes, xs=xs, costs=costs, best=outcomes[int(np.argmin(costs))])
+    stopped = TIME_BUDGET if len(outcomes) < len(starts) or any(o.timed_out for o in outcomes) else ""
+    return Search(outcomes=outcomes, xs=xs, costs=costs, best=outcomes[int(np.argmin(costs))],
+                  n_planned=len(starts), stopped=stopped)

@@ -79,6 +79,28 @@ def lens_statement(run: RunData) -> tuple[str, Note | None]:
     return text + (f" ({reason})" if reason else ""), None
 
 
+def fit_notes(run: RunData) -> list[Note]:
+    """One note per fit that is not trustworthy: not converged, parameters flagged (fit.json
+    ``flags``), or stopped by the time budget (``stopped``, starts run of planned)."""
+    notes = []
+    for name, fit in run.fits.items():
+        if not isinstance(fit, dict):
+            continue
+        flags = fit.get("flags") or {}
+        parts = []
+        if fit.get("converged") is False:
+            parts.append(f"did not converge ({fit.get('message', '')})")
+        if flags:
+            parts.append("its values are not measurements: " + "; ".join(f"{k} {v}" for k, v in flags.items()))
+        if parts:
+            notes.append(Note(f"The {name} fit is not trustworthy: {' '.join(parts)}.", kind="error"))
+        if fit.get("stopped"):
+            notes.append(Note(f"The {name} fit was stopped by the {fit['stopped']}: {fit.get('n_starts')} of "
+                              f"{fit.get('n_starts_planned')} starts ran; u_paper is over those "
+                              "([fit] time_budget_s).", kind="info"))
+    return notes
+
+
 def _overview(run: RunData) -> Section:
     lens_text, lens_note = lens_statement(run)
     facts: list[tuple[str, str]] = [("run", run.name), ("lens", lens_text), ("folder", str(run.run_dir))]
@@ -105,6 +127,7 @@ def _overview(run: RunData) -> Section:
     blocks: list[Any] = [Facts(tuple(facts))]
     if lens_note is not None:
         blocks.insert(0, lens_note)
+    blocks.extend(fit_notes(run))
     for p in run.problems:
         blocks.append(Note(f"Could not read: {p}", kind="error"))
     return Section("overview", "Run overview", tuple(blocks))

@@ -9,15 +9,18 @@ Files
     With one model: the same record as ``fit_<model>.json``, so ``fit.json`` of a single-model
     fit has exactly the issue's keys. With several models: a container
     ``{"models": {name: record}, "files": {name: "fit_<name>.json"}, "selected": name,
-    "selected_by", "all_converged", "cross_model"}`` -- ``selected`` is the converged fit with
-    the lowest BIC (same data and cost for every model), ``cross_model`` the paper's relations
-    when classic and fractional were both fitted (:mod:`pendtrack.fitting.cross_model`).
+    "selected_by", "all_converged", "cross_model"}`` -- ``selected`` is the trustworthy fit
+    (converged, no parameter flagged) with the lowest BIC, or if none is, the converged one (same
+    data and cost for every model; ``selected_by`` says which), ``cross_model`` the paper's
+    relations when classic and fractional were both fitted (:mod:`pendtrack.fitting.cross_model`).
 ``fit.parquet``
     ``t, theta, theta_model, omega_model, residual, model``: every model's simulated curves
     (from the fitted initial state) against the data, stacked.
 
 A fit that did not converge is still written (``"converged": false``, with ``"message"``) so it
-can be inspected, and listed in the stage's ``facts["not_converged"]``; the CLI then exits 1.
+can be inspected, and listed in the stage's ``facts["not_converged"]``; a fit with a flagged
+parameter (``"flags"``, :func:`pendtrack.fitting.result.plausibility_flags`) is listed in
+``facts["flagged"]``. :func:`fit_problems` sums both up; `fit` and `run` then exit 1.
 Fit files of models that an earlier run of this stage wrote and this one does not are removed.
 
 The data's Savitzky-Golay filter (window and order, from the kinematics artifact's
@@ -78,6 +81,22 @@ def _observation(art: Any) -> Any:
     return Observation(savgol_window=int(w), savgol_order=int(order), smooth_theta=True)
 
 
+def fit_problems(facts: dict[str, Any]) -> dict[str, str]:
+    """Model -> why its fit is not trustworthy (not converged, or a parameter flagged), from the stage's facts.
+
+    Works on the facts of a skipped stage too (read back from fit.json's provenance; older ones
+    have no ``flagged``).
+    """
+    models = facts.get("models") or {}
+    out: dict[str, str] = {}
+    for name in facts.get("not_converged") or []:
+        out[name] = f"did not converge: {(models.get(name) or {}).get('message', '')}".rstrip(": ")
+    for name, flags in (facts.get("flagged") or {}).items():
+        if name not in out and flags:
+            out[name] = "flagged: " + "; ".join(f"{k} {v}" for k, v in flags.items())
+    return out
+
+
 def _remove_stale(out_dir: Path, keep: set[str]) -> None:
     """Delete fit_<model>.json files this stage wrote earlier for models not fitted now."""
     for path in out_dir.glob("fit_*.json"):
@@ -119,8 +138,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     -------
     StageOutput
         ``paths``: fit.json, fit.parquet, then the per-model files. ``facts``: ``models``
-        (per model: converged, xi2_min, rms, bic, Omega0, Omega0_stderr, runtime_s),
-        ``not_converged``, ``selected``, ``files``.
+        (per model: converged, trustworthy, flags, stopped, n_starts, n_starts_planned, xi2_min,
+        rms, bic, Omega0, Omega0_stderr, runtime_s, message), ``not_converged``, ``flagged``
+        (model -> flags), ``selected``, ``files``.
 
     Raises
     ------
@@ -175,18 +195,25 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
 
     records = {n: r.to_dict() for n, r in results.items()}
     converged = [n for n in names if results[n].converged]
-    selected = min(converged, key=lambda n: results[n].bic) if converged else None
+    trusted = [n for n in converged if results[n].trustworthy]
+    pool = trusted or converged
+    selected = min(pool, key=lambda n: results[n].bic) if pool else None
+    selected_by = ("lowest bic among trustworthy fits (converged, no parameter flagged; same data and cost)" if trusted
+                   else "lowest bic among converged fits (same data and cost)")
     cross = None
     classic = next((n for n in names if n == "classic"), None)
     fractional = next((n for n in names if n == "fractional"), None)
     if classic and fractional:
         cross = cross_model_relations(results[classic], results[fractional]).to_dict()
     facts: dict[str, Any] = {
-        "models": {n: {"converged": r.converged, "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
+        "models": {n: {"converged": r.converged, "trustworthy": r.trustworthy, "flags": dict(r.flags),
+                       "stopped": r.stopped or None, "n_starts": r.n_starts, "n_starts_planned": r.n_starts_planned,
+                       "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
                        "Omega0": _num(r.params["Omega0"].value) if "Omega0" in r.params else None,
                        "Omega0_stderr": _num(r.params["Omega0"].stderr) if "Omega0" in r.params else None,
                        "runtime_s": _num(r.runtime_s), "message": r.message} for n, r in results.items()},
         "not_converged": [n for n in names if not results[n].converged],
+        "flagged": {n: dict(results[n].flags) for n in names if results[n].flags},
         "selected": selected,
         "files": dict(files),
         "observation": {"savgol_window": obs.savgol_window, "savgol_order": obs.savgol_order},
@@ -205,10 +232,10 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         write_json_artifact(records[names[0]], out_dir / COMBINED, required=FIT_JSON_KEYS, provenance=prov)
     else:
         container = {"models": records, "files": files, "selected": selected,
-                     "selected_by": "lowest bic among converged fits (same data and cost)",
+                     "selected_by": selected_by,
                      "all_converged": len(converged) == len(names), "cross_model": cross}
         write_json_artifact(container, out_dir / COMBINED, required=CONTAINER_KEYS, provenance=prov)
     _remove_stale(out_dir, set(files.values()))
-    for n in facts["not_converged"]:
-        log.warning("%s: the %s fit did not converge: %s", kinematics, n, results[n].message)
+    for n, why in fit_problems(facts).items():
+        log.warning("%s: the %s fit %s", kinematics, n, why)
     return StageOutput(paths, facts=facts)

@@ -1,0 +1,205 @@
+"""Issue #15: fits that end within the configured time budget, say so, flag implausible values,
+survive gappy records, and one exit-code rule for `fit` and `run`."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from pendtrack.artifacts import Provenance, write_artifact
+from pendtrack.cli import cli
+from pendtrack.config import Config, FitConfig
+from pendtrack.errors import FitError
+from pendtrack.fitting import fit_model
+from pendtrack.fitting.multistart import Deadlines
+from pendtrack.fitting.result import plausibility_flags
+from pendtrack.models import get_model, simulate
+from pendtrack.stages.fit import fit_problems
+from pendtrack.stages.kinematics import kinematics_stage
+
+STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
+FAST = replace(FitConfig(), n_starts=2, workers=1, profile=False)
+
+
+def _record(seconds: float = 20.0, rate: float = 60.0, seed: int = 0):
+    t = np.arange(int(seconds * rate)) / rate
+    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
+    theta = sim.theta + np.random.default_rng(seed).normal(0.0, 3e-3, t.size)
+    return t, theta, np.gradient(theta, t)
+
+
+def _gappy_ok(n: int, run: int, share: float = 0.79) -> np.ndarray:
+    """ok in runs of ``run`` samples, then not ok, ``share`` of the samples ok (a blue ball lost at every swing)."""
+    ok = np.ones(n, bool)
+    period = int(round(run / share))
+    for s in range(0, n, period):
+        ok[s + run:s + period] = False
+    return ok
+
+
+@pytest.mark.parametrize("run", [40, 20, 10])
+def test_gappy_record_fits_or_fails_in_one_line(run):
+    # 79 % ok in runs shorter than a period: every one-period span of the equation-error
+    # estimate had a gap, and _polish divided by zero residuals (ZeroDivisionError, traceback)
+    t, theta, omega = _record(30.0)
+    ok = _gappy_ok(t.size, run)
+    assert 0.75 < ok.mean() < 0.85  # ~79 % (rounding of the run pattern)
+    try:
+        res = fit_model(get_model("standard"), t, theta, omega, ok=ok, options=FAST)
+    except FitError as exc:
+        assert "\n" not in str(exc)
+    else:
+        assert np.isfinite(res.xi2_min) and res.converged
+
+
+def test_too_gappy_record_fails_with_a_one_line_fit_error():
+    t, theta, omega = _record(30.0)
+    ok = _gappy_ok(t.size, 2, share=0.5)  # never 4 samples in a row: no gap-free span at all
+    with pytest.raises(FitError) as info:
+        fit_model(get_model("standard"), t, theta, omega, ok=ok, options=FAST)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("periods", [2.6, 1.6])
+def test_few_turning_points_fit_or_say_why(periods):
+    # 2.6 periods: ~5 turning points, the fit runs (its damping is then flagged, not converged-and-quoted);
+    # 1.6 periods: too few, one line saying how many there are and how many are needed
+    t = np.arange(int(periods * 2 * np.pi / 5.0 * 120)) / 120.0
+    sim = simulate(get_model("standard"), STANDARD, t, theta0=1.0, omega0=0.0)
+    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
+    try:
+        res = fit_model(get_model("classic"), t, theta, np.gradient(theta, t), options=FAST)
+    except FitError as exc:
+        assert periods < 2 and "\n" not in str(exc) and "turning points" in str(exc) and "need" in str(exc)
+    else:
+        assert periods > 2 and np.isfinite(res.xi2_min)
+        assert res.trustworthy == (res.converged and not res.flags)
+
+
+def test_deadlines_split_the_budget_and_keep_the_reserve():
+    d = Deadlines.start(40.0, 0.5, now=100.0)
+    assert d.search == pytest.approx(120.0)
+    assert d.refine(now=120.0) == pytest.approx(135.0)  # 3/4 of the reserve refines the best start
+    assert d.end(now=135.0) == pytest.approx(140.0)
+    # a search that overran still leaves the refine step its share, and the uncertainties theirs
+    assert d.refine(now=150.0) == pytest.approx(165.0)
+    assert d.end(now=165.0) == pytest.approx(170.0)
+    free = Deadlines.start(0.0, 0.5)
+    assert free.search == free.refine() == free.end() == float("inf")
+
+
+def test_time_budget_stops_the_search_and_is_recorded():
+    t, theta, omega = _record(20.0)
+    opts = replace(FitConfig(), n_starts=400, workers=1, profile=True, time_budget_s=3.0)
+    t_wall = time.monotonic()
+    res = fit_model(get_model("standard"), t, theta, omega, options=opts)
+    elapsed = time.monotonic() - t_wall
+    # the budget, plus the sandwich's few Jacobians and one evaluation's overrun (a 20 s record at 60 Hz: ms each)
+    assert elapsed < 3.0 + 2.0
+    d = res.to_dict()
+    assert d["stopped"] == "time budget"
+    assert 1 <= d["n_starts"] < d["n_starts_planned"] == 400
+    assert len(d["start_costs"]) == d["n_starts"]
+    assert d["n_accepted"] <= d["n_starts"]  # u_paper over the starts that ran
+    assert f"{d['n_starts']} of 400 starts ran" in d["message"]
+    assert res.converged  # the best start is finished within the reserve
+
+
+def test_no_budget_runs_every_start():
+    t, theta, omega = _record(20.0)
+    res = fit_model(get_model("standard"), t, theta, omega, options=replace(FAST, n_starts=3, time_budget_s=0.0))
+    d = res.to_dict()
+    assert d["stopped"] is None and d["n_starts"] == d["n_starts_planned"] == 3
+    # flags and trustworthy are always written (on 20 s at 60 Hz C0 and C1 may be told apart only together)
+    assert isinstance(d["flags"], dict) and d["trustworthy"] is (res.converged and not d["flags"])
+
+
+def test_plausibility_flags_rules():
+    names = ("Omega0", "C4", "t0", "G2", "Ca", "beta", "theta0", "omega0")
+    x = np.array([5.0, 0.3, -1154.0, 150.0, 0.0007, 1e-6, 2.5, 1e-4])
+    se = np.array([1e-4, 0.01, 50.0, 2776.0, 0.001, 0.01, 1e-3, 1e-2])
+    lo = np.array([1e-6, 0.0, -1e4, 0.0, 0.0, 1e-6, -np.inf, -np.inf])
+    hi = np.array([np.inf, np.inf, -1e-3, np.inf, np.inf, 2 - 1e-6, np.inf, np.inf])
+    floors = {"Omega0": 1e-3, "C4": 5e-3, "G2": 1e-3, "Ca": 1e-3, "beta": 1e-3, "t0": 0.0}
+    flags = plausibility_flags(names, x, se, lo, hi, t_start=0.0, t_end=60.0, floors=floors)
+    assert set(flags) == {"t0", "G2", "beta"}
+    assert flags["t0"].startswith("far before the record")
+    assert flags["G2"].startswith("not determined")
+    assert "lower bound" in flags["beta"]
+    # a coefficient at its physical zero is a result (the term is absent), not a flag
+    x2 = x.copy()
+    x2[1] = 0.0
+    assert "C4" not in plausibility_flags(names, x2, se, lo, hi, t_start=0.0, t_end=60.0, floors=floors)
+
+
+def test_fit_problems_from_facts():
+    facts = {"models": {"a": {"message": "singular"}}, "not_converged": ["a"],
+             "flagged": {"a": {"p": "x"}, "b": {"t0": "far before the record"}}}
+    problems = fit_problems(facts)
+    assert problems["a"].startswith("did not converge: singular")
+    assert problems["b"] == "flagged: t0 far before the record"
+    assert fit_problems({"models": {}, "not_converged": []}) == {}
+
+
+@pytest.fixture(scope="module")
+def kin_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bounded")
+    t, theta, _ = _record(20.0, rate=120.0)
+    angle = d / "angle.parquet"
+    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), angle, "angle",
+                   provenance=Provenance(stage="test"))
+    return kinematics_stage(angle, out_dir=d, config=Config(), progress=False).path
+
+
+def _invoke(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def test_fit_exit_codes(kin_file, tmp_path):
+    ok = _invoke("fit", kin_file, "--model", "standard", "--starts", "2", "--workers", "1", "-q", "--out", tmp_path / "a")
+    assert ok.exit_code == 0, ok.output
+    rec = json.loads((tmp_path / "a" / "fit.json").read_text())
+    assert rec["trustworthy"] is True and rec["flags"] == {} and rec["stopped"] is None
+    # a fit that cannot converge (one optimiser iteration): files written, exit 1 with a warning
+    cfg = tmp_path / "short.toml"
+    cfg.write_text("[fit]\nstart_budget = 1\nladder = false\nprofile = false\ntime_budget_s = 0.0\n")
+    bad = _invoke("fit", kin_file, "--model", "opa", "--starts", "1", "--workers", "1", "-q", "--config", cfg,
+                  "--out", tmp_path / "b")
+    rec = json.loads((tmp_path / "b" / "fit.json").read_text())
+    assert rec["trustworthy"] is False
+    assert bad.exit_code == 1, bad.output
+    assert "warning: the opa fit" in bad.output
+    # a user error: exit 2
+    err = _invoke("fit", tmp_path / "missing.parquet", "--out", tmp_path / "c", "-q")
+    assert err.exit_code == 2
+
+
+def test_run_exit_code_follows_the_fit(monkeypatch, tmp_path):
+    # `run` applies the same rule to its fit stage's facts (the pipeline itself is stubbed here:
+    # the video stages are tested elsewhere)
+    from pendtrack.stages import StageOutput
+    from pendtrack.stages import run as run_mod
+
+    video = tmp_path / "v.mp4"
+    video.write_bytes(b"")
+
+    def fake(facts):
+        def run_pipeline(video, *, out_dir, config, models=None, force=False, progress=True):
+            return run_mod.RunOutput(out_dir=tmp_path, stages={"fit": StageOutput((tmp_path / "fit.json",), facts=facts)})
+        return run_pipeline
+
+    monkeypatch.setattr(run_mod, "run_pipeline", fake({"models": {}, "not_converged": [], "flagged": {}}))
+    assert _invoke("run", video, "--out", tmp_path, "-q").exit_code == 0
+    monkeypatch.setattr(run_mod, "run_pipeline", fake({"models": {"opa": {"converged": True}}, "not_converged": [],
+                                                       "flagged": {"opa": {"t0": "far before the record"}}}))
+    res = _invoke("run", video, "--out", tmp_path, "-q")
+    assert res.exit_code == 1 and "warning: the opa fit flagged: t0 far before the record" in res.output
+    monkeypatch.setattr(run_mod, "run_pipeline", fake({"models": {"classic": {"message": "stopped"}},
+                                                       "not_converged": ["classic"]}))
+    assert _invoke("run", video, "--out", tmp_path, "-q").exit_code == 1
