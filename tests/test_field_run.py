@@ -1,0 +1,66 @@
+"""CI of issue 15: `pendtrack run VIDEO [--projection none] [--marker-color dark|blue]` on field renders.
+
+Each condition of :data:`field_run.CONDITIONS` is rendered small and short (640x360, 12 s;
+one at 1080p) and run through the whole pipeline with no other flag than the lens and the
+marker's colour, as a new user would. Targets (issue 15, "Done when"): >= 99 % of the frames
+where the marker is visible tracked ok, theta within 2 mrad RMS of the truth (README's zero
+convention, the camera's roll included; see :mod:`field_run`), Omega0 of every fitted model
+(classic, opa, fractional) within 0.1 % of the renderer's.
+
+`run` fits three models with 150 starts each and is slow: two conditions, which between them
+hold every field condition but the roll, 1080p and a flat spot, run by default; the others
+are marked slow. A target missed because of code outside the renderer is an
+``xfail(strict=True)`` naming the measured figure, so that a fix shows as XPASS.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
+
+DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_sticker_60fps")
+MODELS = ("classic", "opa", "fractional")
+
+# (condition, what) -> why it fails today, with the figure measured (what: "tracking" or a model)
+KNOWN: dict[tuple[str, str], str] = {}
+
+
+def _marks(condition: str, what: str) -> list:
+    marks = [] if condition in DEFAULT else [pytest.mark.slow]
+    if (condition, what) in KNOWN:
+        marks.append(pytest.mark.xfail(strict=True, reason=KNOWN[condition, what]))
+    return marks
+
+
+@pytest.fixture(scope="module")
+def scored(tmp_path_factory):
+    """``scored(condition) -> Score``: rendered and run once per condition and module."""
+    cache = {}
+
+    def get(condition: str):
+        if condition not in cache:
+            base = tmp_path_factory.mktemp(condition)
+            values = CONDITIONS[condition]
+            folder = render_condition(base / "render", values)
+            cache[condition] = run_and_score(folder, base / "run", flags_for(values))
+        return cache[condition]
+
+    return get
+
+
+@pytest.mark.parametrize("condition", [pytest.param(c, marks=_marks(c, "tracking")) for c in CONDITIONS])
+def test_run_tracks_the_visible_frames_within_2_mrad(scored, condition):
+    score = scored(condition)
+    assert score.returncode in (0, 1), score.stderr  # 1: a fit did not converge (judged below), no crash
+    assert "Traceback" not in score.stderr
+    assert score.ok_visible >= OK_MIN, score
+    assert score.theta_rms <= THETA_RMS_MAX, score
+
+
+@pytest.mark.parametrize("condition, model", [pytest.param(c, m, marks=_marks(c, m)) for c in CONDITIONS
+                                              for m in MODELS])
+def test_run_finds_omega0_within_0_1_percent(scored, condition, model):
+    score = scored(condition)
+    assert model in score.omega0_rel, score
+    assert score.omega0_rel[model] <= OMEGA0_REL_MAX, score
