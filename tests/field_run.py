@@ -39,23 +39,33 @@ CONDITIONS: dict[str, dict] = {
     "dark_string_normal_lens_30fps_axle_out": dict(
         lens_projection="none", lens_fov_deg=70.0, camera_offset_m=(0.0, 0.22), rig="string", marker_color="dark",
         marker_shape="ball", spot_radius_m=0.015, theta0=0.8, fps=30.0),
-    # a blue ball held by hand for 2 s then released, with a pink sticker on it, 60 fps
+    # a blue ball (4 cm) on a string, held by hand for 2 s then released, 60 fps, 960x540
+    "blue_ball_hand_60fps": dict(
+        rig="string", marker_color="blue", marker_shape="ball", spot_radius_m=0.02, hand_release_s=2.0, fps=60.0,
+        width=960, height=540),
+    # the same with a pink sticker on the ball (the phone video had a bead on its ball)
     "blue_ball_hand_sticker_60fps": dict(
-        marker_color="blue", marker_shape="ball", hand_release_s=2.0, sticker_color="pink", fps=60.0),
+        rig="string", marker_color="blue", marker_shape="ball", spot_radius_m=0.02, hand_release_s=2.0,
+        sticker_color="pink", sticker_radius_m=0.006, fps=60.0, width=960, height=540),
     "paper_look_60fps": dict(fps=60.0),  # the reference: the paper's pink spot and fisheye
-    "normal_lens": dict(lens_projection="none", lens_fov_deg=75.0, fps=60.0),
+    "normal_lens": dict(lens_projection="none", lens_fov_deg=75.0, camera_offset_m=(0.0, 0.13), fps=60.0),
     "fps30": dict(fps=30.0),
-    "dark_ball": dict(marker_color="dark", marker_shape="ball", fps=60.0),
-    "blue_ball": dict(marker_color="blue", marker_shape="ball", fps=60.0),
+    "dark_ball": dict(rig="string", marker_color="dark", marker_shape="ball", spot_radius_m=0.02, fps=60.0),
+    "blue_ball": dict(rig="string", marker_color="blue", marker_shape="ball", spot_radius_m=0.02, fps=60.0),
+    # the same balls fixed on the paper's grey bar: the bar moves with the ball and is darker than
+    # the wall (dark) and bluer than the warm wall (blue)
+    "dark_ball_on_bar": dict(marker_color="dark", marker_shape="ball", spot_radius_m=0.02, fps=60.0),
+    "blue_ball_on_bar": dict(marker_color="blue", marker_shape="ball", spot_radius_m=0.02, fps=60.0),
     "axle_out_of_frame": dict(lens_projection="none", lens_fov_deg=70.0, camera_offset_m=(0.0, 0.22), theta0=0.8,
                               fps=60.0),
     "hand": dict(hand_release_s=2.0, fps=60.0),
     "roll_3deg": dict(camera_roll_deg=3.0, fps=60.0),
     "sticker": dict(sticker_color="blue", fps=60.0),
-    "blue_ball_1080p_60fps": dict(marker_color="blue", marker_shape="ball", width=1920, height=1080, seconds=10.0,
-                                  fps=60.0),
+    "blue_ball_1080p_60fps": dict(rig="string", marker_color="blue", marker_shape="ball", spot_radius_m=0.02, width=1920,
+                                  height=1080, seconds=10.0, fps=60.0),
     "roll_normal_lens_dark": dict(camera_roll_deg=-3.0, lens_projection="none", lens_fov_deg=75.0,
-                                  marker_color="dark", marker_shape="ball", fps=60.0),
+                                  camera_offset_m=(0.0, 0.13), rig="string", marker_color="dark", marker_shape="ball",
+                                  spot_radius_m=0.02, fps=60.0),
 }
 
 

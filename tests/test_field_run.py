@@ -7,9 +7,10 @@ where the marker is visible tracked ok, theta within 2 mrad RMS of the truth (RE
 convention, the camera's roll included; see :mod:`field_run`), Omega0 of every fitted model
 (classic, opa, fractional) within 0.1 % of the renderer's.
 
-`run` fits three models with 150 starts each and is slow: two conditions, which between them
-hold every field condition but the roll, 1080p and a flat spot, run by default; the others
-are marked slow. A target missed because of code outside the renderer is an
+`run` fits three models with 150 starts each and is slow: two conditions run by default (a
+dark ball on a string through a normal lens at 30 fps with the axle above the frame; a blue
+ball held by a hand for 2 s, at 60 fps), the others (the roll, the sticker, 1080p, each
+condition alone, the balls on the paper's bar) are marked slow. A target missed because of code outside the renderer is an
 ``xfail(strict=True)`` naming the measured figure, so that a fix shows as XPASS.
 """
 
@@ -19,11 +20,23 @@ import pytest
 
 from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
 
-DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_sticker_60fps")
+DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_60fps")
 MODELS = ("classic", "opa", "fractional")
 
-# (condition, what) -> why it fails today, with the figure measured (what: "tracking" or a model)
-KNOWN: dict[tuple[str, str], str] = {}
+# (condition, what) -> why it fails today, with the figure measured on 2026-11-23 (what: "tracking"
+# or a model). Every other (condition, what) met its target then; figures in the session's report.
+_FRACTIONAL_30FPS = ("fitting: the fractional model's Omega0 is off by {} at 30 fps (1.14e-3 on the paper's pink "
+                     "spot at 30 fps too, 2.6e-4 at 60 fps); classic and OPA are within 4e-5")
+_STICKER = ("tracking: a sticker turning with the bob biases the template match: theta {} mrad RMS with every "
+            "visible frame ok (the same bob without the sticker: 0.74 mrad)")
+KNOWN: dict[tuple[str, str], str] = {
+    ("dark_string_normal_lens_30fps_axle_out", "fractional"): _FRACTIONAL_30FPS.format("1.65e-3"),
+    ("fps30", "fractional"): _FRACTIONAL_30FPS.format("1.14e-3"),
+    ("blue_ball_hand_sticker_60fps", "tracking"): _STICKER.format("2.57 (mean -1.4)"),
+    ("blue_ball_hand_sticker_60fps", "classic"): "from the sticker's theta error (2.57 mrad): Omega0 off by 1.5e-3",
+    ("blue_ball_hand_sticker_60fps", "fractional"): "from the sticker's theta error (2.57 mrad): Omega0 off by 5.7e-3",
+    ("sticker", "tracking"): _STICKER.format("4.42"),
+}
 
 
 def _marks(condition: str, what: str) -> list:

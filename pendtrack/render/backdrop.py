@@ -195,9 +195,9 @@ def build_hand(scene: Scene, theta: float) -> Hand:
     """A hand gripping the bob at angle ``theta`` [rad] from outside its swing.
 
     In the pendulum's frame (``a`` along the bar from the axle, ``c`` across it), with the bob
-    at ``a = L`` of radius ``R``: the palm beyond the bob, four fingers wrapped over its
-    outer two thirds (a crescent of the bob nearest the axle stays visible), a thumb along
-    its side, the forearm leaving outwards. Drawn in a plane 2 cm in front of the pendulum.
+    at ``a = L`` of radius ``R``: the palm beyond the bob, four fingers wrapped over all of
+    it (the marker is not visible while held), a thumb along its side, the forearm leaving
+    outwards. Drawn in a plane 2 cm in front of the pendulum.
     """
     x, y, size = scene.pixel_world_maps(HAND_DEPTH_M)
     s, co = np.sin(theta), np.cos(theta)
@@ -206,9 +206,9 @@ def build_hand(scene: Scene, theta: float) -> Hand:
     palm_a = big_l + big_r + 0.045
     sd = (np.hypot((a - palm_a) / 0.045, (c - 0.006) / 0.040) - 1.0) * 0.040  # palm (an ellipse)
     sd = np.minimum(sd, _capsule_sd(a, c, palm_a + 0.03, 0.0, big_l + 0.40, 0.0, 0.034))  # forearm
-    finger = 0.0098  # fingers overlap: no gap between them
-    for k, across in enumerate((-0.027, -0.009, 0.009, 0.027)):
-        tip = big_l - (0.25 - 0.06 * abs(k - 1.5)) * big_r
+    finger = 0.54 * max(0.018, 0.6 * big_r)  # fingers overlap: no gap between them
+    for k, across in enumerate(np.array((-1.5, -0.5, 0.5, 1.5)) * max(0.018, 0.6 * big_r)):
+        tip = big_l - big_r - 0.006 + 0.003 * abs(k - 1.5)
         sd = np.minimum(sd, _capsule_sd(a, c, palm_a - 0.02, across, tip, across * 0.8, finger))
     sd = np.minimum(sd, _capsule_sd(a, c, palm_a - 0.01, 0.042, big_l + 0.3 * big_r, 0.036, 0.0095))  # thumb
     alpha = np.clip(0.5 - sd / size, 0.0, 1.0)
