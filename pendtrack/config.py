@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
@@ -29,6 +30,9 @@ LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic",
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
+RENDER_MARKER_COLOURS = ("pink", "dark", "blue")  # named looks of the rendered bob (or #RRGGBB)
+RENDER_MARKER_SHAPES = ("spot", "ball")  # a flat disc on the bar | a shaded sphere
+RENDER_RIGS = ("bar", "string")  # the paper's bar | a ball on a string
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -143,12 +147,20 @@ class RenderConfig:
     alley: bool = False  # draw the alley's slabs near the bottom of the swing
     trial: int = 1  # trial number, last digit of the run code
     camera_offset_m: tuple[float, ...] = (0.05, 0.02)  # optical-axis point minus axle, in the plane, x right, y down [m]
-    lens_projection: str = "equisolid"  # the camera's fisheye projection (see pendtrack.lens.fisheye)
+    lens_projection: str = "equisolid"  # the camera's projection (pendtrack.lens.fisheye); none = a normal lens
     lens_fov_deg: float = 120.0  # the camera's diagonal field of view [deg]
     blur_step_px: float = 0.4  # max spot travel between motion-blur sub-samples [px]
     illumination_gradient: float = 0.3  # relative brightness change across the half diagonal [1]
     vignetting: float = 0.35  # relative darkening at the image corners [1]
     x264_preset: str = "veryfast"  # libx264 speed preset
+    # field conditions (what users film): the marker's look, the rig, the hand, the camera's roll
+    marker_color: str = "pink"  # the bob's colour: pink (the paper's spot) | dark | blue | #RRGGBB
+    marker_shape: str = "spot"  # spot (a flat disc on the bar) | ball (a shaded sphere)
+    rig: str = "bar"  # bar (the paper's bar, disc and tile) | string (a thin string to the bob, Omega0 = sqrt(g/L))
+    sticker_color: str = ""  # a small sticker on the bob, off its centre: "" = none | pink | dark | blue | #RRGGBB
+    sticker_radius_m: float = 0.004  # [m]
+    hand_release_s: float = 0.0  # a hand holds the bob at theta0 until this time, then lets go; 0 = no hand [s]
+    camera_roll_deg: float = 0.0  # camera rolled about its optical axis: theta in the image = theta + roll [deg]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -250,12 +262,15 @@ def _sizes(*sizes: int, what: str) -> Check:
 
 
 _NAME: Check = (lambda v: bool(v.strip())), "must not be empty"
+_MARKER_COLOUR: Check = ((lambda v: v in RENDER_MARKER_COLOURS or re.fullmatch(r"#[0-9a-fA-F]{6}", v) is not None),
+                         f"must be one of {', '.join(RENDER_MARKER_COLOURS)} or #RRGGBB")
 _NAMES: Check = _each(_NAME, "non-empty names")
 
 # Ranges and choices of the values, checked when a config is loaded (before any stage runs).
 # Floats must also be finite. Names of models and effects are checked by their registries,
 # the marker colour by pendtrack.track.colour, the Dask address by pendtrack.batch.executor,
-# and [render] by pendtrack.render.pipeline.check_render_config (with its cross-key rules).
+# and [render] by pendtrack.render.pipeline.check_render_config (with its cross-key rules; the
+# field-condition keys of [render] are also checked here, at load time).
 CHECKS: dict[str, tuple[Check, ...]] = {
     "lens.projection": (_one_of(LENS_PROJECTIONS),),
     "lens.fov_deg": (_within(0, 360, lo_open=True, hi_open=True),),
@@ -302,6 +317,14 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "batch.inner_workers": (_ge(0),),
     "batch.extensions": (_each(((lambda v: len(v) > 1 and v.startswith(".")), ""), "suffixes with the dot (.mp4)"),),
     "batch.omega0_models": (_NAMES,),
+    "render.marker_color": (_MARKER_COLOUR,),
+    "render.marker_shape": (_one_of(RENDER_MARKER_SHAPES),),
+    "render.rig": (_one_of(RENDER_RIGS),),
+    "render.sticker_color": (((lambda v: v == "" or _MARKER_COLOUR[0](v)),
+                              f"must be '' (none), {', '.join(RENDER_MARKER_COLOURS)} or #RRGGBB"),),
+    "render.sticker_radius_m": (_gt(0),),
+    "render.hand_release_s": (_ge(0),),
+    "render.camera_roll_deg": (_within(-45, 45),),
     "discover.baseline": (_NAME,),
     "discover.effects": (_NAMES,),
     "discover.train_fraction": (_within(0, 1, lo_open=True, hi_open=True),),

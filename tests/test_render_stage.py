@@ -46,12 +46,20 @@ def test_same_seed_gives_identical_truth_and_frames(tmp_path):
     assert not np.array_equal(fa[0], fc[0])  # the seed matters (noise, wall)
 
 
-def _render_sha(out_dir) -> str:
-    out = render_stage(out_dir=out_dir, config=small_config(seed=5), progress=False)
+# Every field condition at once (tests/test_render_field.py): a normal lens, a blue ball on a
+# string with a sticker, the axle above the frame, a hand letting go, a rolled camera, 60 fps.
+FIELD = dict(lens_projection="none", lens_fov_deg=70.0, camera_offset_m=(0.0, 0.2), marker_color="blue",
+             marker_shape="ball", rig="string", sticker_color="pink", hand_release_s=0.1, camera_roll_deg=2.0,
+             theta0=0.7, fps=60.0)
+
+
+def _render_sha(out_dir, field: bool = False) -> str:
+    out = render_stage(out_dir=out_dir, config=small_config(seed=5, **(FIELD if field else {})), progress=False)
     return hashlib.sha256(out.paths[0].read_bytes()).hexdigest()
 
 
-def test_render_is_bit_identical_across_calls_and_processes(tmp_path):
+@pytest.mark.parametrize("field", [False, True], ids=["paper", "field_conditions"])
+def test_render_is_bit_identical_across_calls_and_processes(tmp_path, field):
     # The same seed and size give the same video file, byte for byte: in one process, with
     # the heap in a different state each time (the libx264 B-frame path on AVX-512 CPUs read
     # memory it had not initialised, so renders alternated between videos), and in a fresh
@@ -60,13 +68,13 @@ def test_render_is_bit_identical_across_calls_and_processes(tmp_path):
     shas = set()
     for k in range(3):
         churn.append(np.random.default_rng(k).integers(0, 255, size=50_000 * (k + 1), dtype=np.uint8))
-        shas.add(_render_sha(tmp_path / f"in{k}"))
+        shas.add(_render_sha(tmp_path / f"in{k}", field))
         del churn[::2]
     code = ("import sys; from pathlib import Path; sys.path.insert(0, sys.argv[1]); import test_render_stage as t; "
-            "print(t._render_sha(Path(sys.argv[2])))")
+            "print(t._render_sha(Path(sys.argv[2]), sys.argv[3] == 'field'))")
     env = os.environ | {"PYTHONPATH": os.pathsep.join(filter(None, [os.environ.get("PYTHONPATH"), os.getcwd()]))}
-    sub = subprocess.run([sys.executable, "-c", code, os.path.dirname(__file__), str(tmp_path / "sub")],
-                         capture_output=True, text=True, check=True, env=env)
+    sub = subprocess.run([sys.executable, "-c", code, os.path.dirname(__file__), str(tmp_path / "sub"),
+                          "field" if field else "paper"], capture_output=True, text=True, check=True, env=env)
     shas.add(sub.stdout.strip().splitlines()[-1])
     assert len(shas) == 1
 

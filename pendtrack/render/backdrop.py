@@ -160,6 +160,68 @@ def build_backdrop(scene: Scene, *, alley: bool, gradient: float, vignetting: fl
                     light=illumination(scene, gradient=gradient, vignetting=vignetting))
 
 
+HAND_DEPTH_M = -0.02  # the hand, in front of the pendulum's plane [m]
+SKIN_BGR = (0.55, 0.66, 0.86)  # reflectance of a light skin
+
+
+@dataclass(frozen=True)
+class Hand:
+    """A hand holding the bob (static while it holds), to composite over the frame.
+
+    Attributes
+    ----------
+    box : tuple of int
+        ``(x0, y0, x1, y1)``, half-open pixel box of the hand (empty when out of frame).
+    alpha : ndarray, shape (y1 - y0, x1 - x0, 1), float32
+        Coverage in [0, 1].
+    colour : ndarray, shape (y1 - y0, x1 - x0, 3), float32
+        Its reflectance, BGR (shaded: darker towards the fingers' and the palm's edges).
+    """
+
+    box: tuple[int, int, int, int]
+    alpha: np.ndarray
+    colour: np.ndarray
+
+
+def _capsule_sd(a: np.ndarray, c: np.ndarray, a0: float, c0: float, a1: float, c1: float,
+                r: float) -> np.ndarray:
+    """Signed distance [m] to the capsule of radius ``r`` around the segment (a0, c0)-(a1, c1)."""
+    da, dc = a1 - a0, c1 - c0
+    h = np.clip(((a - a0) * da + (c - c0) * dc) / (da * da + dc * dc), 0.0, 1.0)
+    return np.hypot(a - a0 - h * da, c - c0 - h * dc) - r
+
+
+def build_hand(scene: Scene, theta: float) -> Hand:
+    """A hand gripping the bob at angle ``theta`` [rad] from outside its swing.
+
+    In the pendulum's frame (``a`` along the bar from the axle, ``c`` across it), with the bob
+    at ``a = L`` of radius ``R``: the palm beyond the bob, four fingers wrapped over all of
+    it (the marker is not visible while held), a thumb along its side, the forearm leaving
+    outwards. Drawn in a plane 2 cm in front of the pendulum.
+    """
+    x, y, size = scene.pixel_world_maps(HAND_DEPTH_M)
+    s, co = np.sin(theta), np.cos(theta)
+    a, c = x * s + y * co, x * co - y * s
+    big_l, big_r = scene.spot_distance_m, scene.spot_radius_m
+    palm_a = big_l + big_r + 0.045
+    sd = (np.hypot((a - palm_a) / 0.045, (c - 0.006) / 0.040) - 1.0) * 0.040  # palm (an ellipse)
+    sd = np.minimum(sd, _capsule_sd(a, c, palm_a + 0.03, 0.0, big_l + 0.40, 0.0, 0.034))  # forearm
+    finger = 0.54 * max(0.018, 0.6 * big_r)  # fingers overlap: no gap between them
+    for k, across in enumerate(np.array((-1.5, -0.5, 0.5, 1.5)) * max(0.018, 0.6 * big_r)):
+        tip = big_l - big_r - 0.006 + 0.003 * abs(k - 1.5)
+        sd = np.minimum(sd, _capsule_sd(a, c, palm_a - 0.02, across, tip, across * 0.8, finger))
+    sd = np.minimum(sd, _capsule_sd(a, c, palm_a - 0.01, 0.042, big_l + 0.3 * big_r, 0.036, 0.0095))  # thumb
+    alpha = np.clip(0.5 - sd / size, 0.0, 1.0)
+    rows, cols = np.flatnonzero(alpha.max(axis=1) > 0), np.flatnonzero(alpha.max(axis=0) > 0)
+    if rows.size == 0:
+        return Hand(box=(0, 0, 0, 0), alpha=np.zeros((0, 0, 1), np.float32), colour=np.zeros((0, 0, 3), np.float32))
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    depth = np.clip(-sd[y0:y1, x0:x1] / 0.012, 0.0, 1.0)  # 0 at an edge, 1 deep inside [1]
+    shade = (0.78 + 0.22 * np.sqrt(depth))[..., None]
+    colour = (np.asarray(SKIN_BGR) * shade).astype(np.float32)
+    return Hand(box=(x0, y0, x1, y1), alpha=alpha[y0:y1, x0:x1, None].astype(np.float32), colour=colour)
+
+
 def illumination(scene: Scene, *, gradient: float, vignetting: float) -> np.ndarray:
     """Smooth static lighting: a linear gradient (lamp up-left), a soft hot spot, vignetting.
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendtrack.render.backdrop import build_backdrop
+from pendtrack.render.backdrop import build_backdrop, build_hand
 from pendtrack.render.raster import raster_pendulum
 from pendtrack.render.scene import Scene
 
@@ -36,10 +36,13 @@ class FrameRenderer:
         calls give identical frames.
     use_numba : bool
         Use the compiled raster kernel (default) or its pure-Python twin.
+    hand_theta : float, optional
+        A hand grips the bob at this angle [rad] in the frames that ask for it (``hand`` of
+        :meth:`render`); None: no hand.
     """
 
     def __init__(self, scene: Scene, *, alley: bool, gradient: float, vignetting: float, noise_sigma: float,
-                 seed: int, use_numba: bool = True) -> None:
+                 seed: int, use_numba: bool = True, hand_theta: float | None = None) -> None:
         self.scene = scene
         self._use_numba = use_numba
         self._rng = np.random.default_rng(seed)
@@ -55,6 +58,11 @@ class FrameRenderer:
             rows = np.flatnonzero(self._front_alpha.max(axis=(1, 2)) > 0)
             self._front_row0 = int(rows[0]) if rows.size else scene.height
         self._static = self._over_front(self._back.copy(), (0, 0, scene.width, scene.height))
+        self._hand = None
+        if hand_theta is not None:
+            hand = build_hand(scene, hand_theta)
+            x0, y0, x1, y1 = hand.box
+            self._hand = (hand.box, hand.alpha, hand.colour * self._light[y0:y1, x0:x1])
         self._noise_sigma = float(noise_sigma)
         self._noise = None
         if noise_sigma > 0:
@@ -74,31 +82,40 @@ class FrameRenderer:
             part += self._front[top:y1, x0:x1] * fa
         return region
 
-    def render_linear(self, thetas: np.ndarray) -> np.ndarray:
+    def render_linear(self, thetas: np.ndarray, *, hand: float = 0.0) -> np.ndarray:
         """Noise-free frame, float32 (H, W, 3) BGR in 8-bit levels (not clipped).
 
         Parameters
         ----------
         thetas : ndarray, shape (n,)
             Pendulum angles [rad] sampled evenly over the exposure (one value: no blur).
+        hand : float
+            Share of the exposure during which the hand holds the bob, in [0, 1]
+            (needs ``hand_theta``; 0: no hand in this frame).
         """
         frame = self._static.copy()
         box = self.scene.bbox_px(np.atleast_1d(thetas))
         x0, y0, x1, y1 = box
-        if x1 <= x0 or y1 <= y0:
-            return frame
-        region, _ = raster_pendulum(self._x, self._y, self._size, self._light, self._back, box,
-                                    np.atleast_1d(thetas), self._parts, use_numba=self._use_numba)
-        frame[y0:y1, x0:x1] = self._over_front(region, box)
+        if x1 > x0 and y1 > y0:
+            region, _ = raster_pendulum(self._x, self._y, self._size, self._light, self._back, box,
+                                        np.atleast_1d(thetas), self._parts, use_numba=self._use_numba)
+            frame[y0:y1, x0:x1] = self._over_front(region, box)
+        if hand > 0 and self._hand is not None:
+            (x0, y0, x1, y1), alpha, colour = self._hand
+            cov = alpha * np.float32(hand)
+            part = frame[y0:y1, x0:x1]
+            part *= 1 - cov
+            part += colour * cov
         return frame
 
-    def render(self, thetas: np.ndarray) -> np.ndarray:
+    def render(self, thetas: np.ndarray, *, hand: float = 0.0) -> np.ndarray:
         """Frame as the sensor delivers it: noisy, clipped, uint8 (H, W, 3) BGR.
 
         Each call draws the next noise pattern from the seeded generator (a random crop of
-        a pre-drawn noise bank), so frames depend on the order of calls.
+        a pre-drawn noise bank), so frames depend on the order of calls. ``hand`` as in
+        :meth:`render_linear`.
         """
-        frame = self.render_linear(thetas)
+        frame = self.render_linear(thetas, hand=hand)
         if self._noise is not None:
             k = int(self._rng.integers(NOISE_BANK))
             dy, dx = (int(v) for v in self._rng.integers(0, NOISE_MARGIN + 1, size=2))

@@ -6,6 +6,11 @@ the initial conditions ``(theta0, omega0)`` hold at ``t = 0``. The few sub-sampl
 first frame before ``t = 0`` use ``theta0 + omega0 t`` (the pendulum is released or
 launched at ``t = 0``; this differs from the model by ``O(alpha e^2)``, well under 1e-4 rad).
 
+A hand may hold the bob until ``release_s > 0``: before it, ``theta = theta0`` and
+``omega = 0`` (the truth says so), and the motion is the model's from ``(theta0, omega0)``
+at ``t = release_s`` (released, or launched by the hand when ``omega0 != 0``);
+:attr:`Motion.hand` is the share of each frame's exposure during which the hand holds.
+
 The dynamics come from a callable ``simulate(t) -> (theta, omega)`` evaluated at
 ascending times ``t`` starting at 0 (see :func:`pendtrack.render.physics.model_simulator`),
 so this module knows nothing of the models.
@@ -38,6 +43,11 @@ class Motion:
         Sub-sample angles [rad], frame after frame.
     sub_start : ndarray, shape (n_frames + 1,), int64
         Frame ``k`` renders ``sub_theta[sub_start[k]:sub_start[k + 1]]``.
+    hand : ndarray, shape (n_frames,), optional
+        Share of each frame's exposure during which a hand holds the bob, in [0, 1]
+        (None: no hand).
+    release_s : float
+        When the hand lets go [s]; 0 without a hand.
     """
 
     t: np.ndarray
@@ -45,6 +55,8 @@ class Motion:
     omega: np.ndarray
     sub_theta: np.ndarray
     sub_start: np.ndarray
+    hand: np.ndarray | None = None
+    release_s: float = 0.0
 
     @property
     def n_frames(self) -> int:
@@ -53,6 +65,10 @@ class Motion:
     def frame_thetas(self, k: int) -> np.ndarray:
         """Sub-sample angles [rad] of frame ``k`` (evenly spread over its exposure)."""
         return self.sub_theta[self.sub_start[k]:self.sub_start[k + 1]]
+
+    def frame_hand(self, k: int) -> float:
+        """Share of frame ``k``'s exposure during which the hand holds the bob (0: no hand)."""
+        return 0.0 if self.hand is None else float(self.hand[k])
 
 
 def subsample_counts(omega: np.ndarray, *, exposure_s: float, px_per_rad: float, step_px: float,
@@ -77,7 +93,7 @@ def subsample_counts(omega: np.ndarray, *, exposure_s: float, px_per_rad: float,
 
 
 def sample_motion(simulate: Simulator, *, n_frames: int, fps: float, exposure_s: float, theta0: float,
-                  omega0: float, px_per_rad: float, step_px: float) -> Motion:
+                  omega0: float, px_per_rad: float, step_px: float, release_s: float = 0.0) -> Motion:
     """Evaluate the motion at the frame times and at the exposure sub-samples.
 
     Parameters
@@ -94,22 +110,40 @@ def sample_motion(simulate: Simulator, *, n_frames: int, fps: float, exposure_s:
         Initial angle [rad] and angular velocity [rad/s] at ``t = 0``.
     px_per_rad, step_px : float
         See :func:`subsample_counts`.
+    release_s : float
+        A hand holds the bob at ``theta0`` until this time [s]; 0: no hand (the motion
+        starts at ``t = 0``).
     """
     t = np.arange(n_frames, dtype=float) / fps
-    _, omega_est = simulate(t)
+    tau = t - release_s if release_s > 0 else t  # time since the motion started [s]
+    moving = tau >= 0
+    if moving.all():
+        _, omega_est = simulate(tau)
+    else:  # held frames count as moving at omega0 (one may straddle the release)
+        omega_est = np.full(n_frames, float(omega0))
+        if moving.any():
+            after = tau[moving & (tau > 0)]
+            omega_est[n_frames - after.size:] = np.asarray(simulate(np.concatenate(([0.0], after)))[1])[1:]
     counts = subsample_counts(omega_est, exposure_s=exposure_s, px_per_rad=px_per_rad, step_px=step_px)
     start = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     frame_of = np.repeat(np.arange(n_frames), counts)
     j = np.arange(start[-1]) - start[frame_of]
-    sub_t = t[frame_of] + exposure_s * ((j + 0.5) / counts[frame_of] - 0.5)
+    sub_tau = tau[frame_of] + exposure_s * ((j + 0.5) / counts[frame_of] - 0.5)
 
-    grid = np.unique(np.concatenate((t, sub_t[sub_t > 0])))  # ascending, grid[0] == 0
+    grid = np.unique(np.concatenate(([0.0], tau[moving], sub_tau[sub_tau > 0])))  # ascending, grid[0] == 0
     theta_g, omega_g = simulate(grid)
     theta_g = np.asarray(theta_g, dtype=float)
     omega_g = np.asarray(omega_g, dtype=float)
-    at_frames = np.searchsorted(grid, t)
-    sub_theta = np.where(sub_t > 0, theta_g[np.searchsorted(grid, np.maximum(sub_t, 0.0))], theta0 + omega0 * sub_t)
-    return Motion(t=t, theta=theta_g[at_frames], omega=omega_g[at_frames], sub_theta=sub_theta, sub_start=start)
+    before = theta0 if release_s > 0 else theta0 + omega0 * sub_tau  # held, or extrapolated back from t = 0
+    sub_theta = np.where(sub_tau > 0, theta_g[np.searchsorted(grid, np.maximum(sub_tau, 0.0))], before)
+    at_frames = np.searchsorted(grid, np.maximum(tau, 0.0))
+    theta = np.where(moving, theta_g[at_frames], theta0)
+    omega = np.where(moving, omega_g[at_frames], 0.0)
+    hand = None
+    if release_s > 0:
+        hand = np.bincount(frame_of, weights=(sub_tau < 0).astype(float), minlength=n_frames) / counts
+    return Motion(t=t, theta=theta, omega=omega, sub_theta=sub_theta, sub_start=start, hand=hand,
+                  release_s=float(release_s))
 
 
 def run_code(*, tile_length_m: float, omega0: float, alley: bool, trial: int) -> str | None:

@@ -100,6 +100,15 @@ def resolve_params(model_name: str, given: Mapping[str, float], *, tile_length_m
     return model, model.validate(params)
 
 
+def string_omega0(*, length_m: float, radius_m: float, gravity: float) -> float:
+    """Small-angle angular frequency [rad/s] of a solid ball on a massless string.
+
+    The ball's centre at ``length_m`` [m] from the axle, radius ``radius_m`` [m]:
+    ``Omega0^2 = g L / (L^2 + 2 R^2 / 5)`` (a physical pendulum; ``sqrt(g/L)`` as R -> 0).
+    """
+    return float(np.sqrt(gravity * length_m / (length_m**2 + 0.4 * radius_m**2)))
+
+
 def model_simulator(model: Model, params: Mapping[str, float], *, theta0: float, omega0: float,
                     fps: float) -> Simulator:
     """``simulate(t) -> (theta, omega)`` for ascending ``t`` [s] starting at 0.

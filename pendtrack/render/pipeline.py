@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from pendtrack.config import RenderConfig
+from pendtrack.config import RENDER_MARKER_SHAPES, RENDER_RIGS, RenderConfig
 from pendtrack.errors import ConfigError
 from pendtrack.lens.fisheye import PROJECTIONS, Fisheye
 from pendtrack.render.film import FrameRenderer
 from pendtrack.render.motion import Motion, run_code, sample_motion
-from pendtrack.render.physics import model_simulator, parse_params, resolve_params
-from pendtrack.render.scene import Scene, scene_from_config
+from pendtrack.render.physics import model_simulator, parse_params, resolve_params, string_omega0
+from pendtrack.render.scene import Scene, marker_reflectance, scene_from_config
 
 X264_PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow", "slower", "veryslow")
 
@@ -63,6 +63,14 @@ class RenderPlan:
             "n_frames": self.n_frames,
             "axle_px": list(self.scene.axle_px),
             "subsamples_max": int(np.diff(self.motion.sub_start).max()),
+            # field conditions: the truth is physical; in the image theta reads theta + camera_roll_rad
+            "camera_roll_rad": self.scene.roll_rad,
+            "lens_projection": self.scene.projection,
+            "axle_in_frame": bool(0 <= self.scene.axle_px[0] <= self.scene.width - 1
+                                  and 0 <= self.scene.axle_px[1] <= self.scene.height - 1),
+            "hand_release_s": self.motion.release_s,  # before it theta = theta0, omega = 0 (held); 0: no hand
+            "marker": {"color": self.config.marker_color, "shape": self.config.marker_shape,
+                       "sticker": self.config.sticker_color, "rig": self.config.rig},
             "scene": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.scene).items()},
         }
 
@@ -114,16 +122,40 @@ def check_render_config(cfg: RenderConfig) -> int:
     for key in ("illumination_gradient", "vignetting"):
         value = getattr(cfg, key)
         _require(finite(value) and 0 <= value < 1, key, "must be within [0, 1)", value)
-    _require(cfg.lens_projection in PROJECTIONS and cfg.lens_projection not in ("none", "rectilinear"),
-             "lens_projection", "must be a fisheye projection (equisolid, equidistant, stereographic, orthographic)",
+    _require(cfg.lens_projection in PROJECTIONS, "lens_projection", f"must be one of {', '.join(PROJECTIONS)}",
              cfg.lens_projection)
-    try:
-        Fisheye(width=cfg.width, height=cfg.height, projection=cfg.lens_projection, fov_deg=cfg.lens_fov_deg)
+    try:  # "none" is a normal (rectilinear) lens of that field of view
+        Fisheye(width=cfg.width, height=cfg.height, fov_deg=cfg.lens_fov_deg,
+                projection="rectilinear" if cfg.lens_projection == "none" else cfg.lens_projection)
     except ValueError as exc:
         raise ConfigError(f"render.lens_fov_deg: {exc}") from None
     _require(cfg.lens_fov_deg < 170, "lens_fov_deg", "must be below 170 deg (the pendulum's plane is flat)",
              cfg.lens_fov_deg)
+    _check_field_conditions(cfg)
     return n_frames
+
+
+def _check_field_conditions(cfg: RenderConfig) -> None:
+    """The bob's look, the rig, the hand and the roll (see :func:`check_render_config`)."""
+    for key, none in (("marker_color", ""), ("sticker_color", " or '' (none)")):
+        value = getattr(cfg, key)
+        try:
+            if value or not none:
+                marker_reflectance(value)
+        except ValueError:
+            _require(False, key, f"must be pink, dark, blue, #RRGGBB{none}", value)
+    _require(cfg.marker_shape in RENDER_MARKER_SHAPES, "marker_shape", f"must be one of {', '.join(RENDER_MARKER_SHAPES)}",
+             cfg.marker_shape)
+    _require(cfg.rig in RENDER_RIGS, "rig", f"must be one of {', '.join(RENDER_RIGS)}", cfg.rig)
+    _require(cfg.rig == "bar" or cfg.tile_length_m == 0, "tile_length_m", "must be 0 with rig = 'string'",
+             cfg.tile_length_m)
+    limit = (1 - Scene.sticker_offset) * cfg.spot_radius_m
+    _require(math.isfinite(cfg.sticker_radius_m) and 0 < cfg.sticker_radius_m <= limit, "sticker_radius_m",
+             f"must be > 0 and keep the sticker on the bob (<= {limit:.4g} m)", cfg.sticker_radius_m)
+    _require(math.isfinite(cfg.hand_release_s) and 0 <= cfg.hand_release_s < cfg.seconds, "hand_release_s",
+             "must be within [0, seconds)", cfg.hand_release_s)
+    _require(math.isfinite(cfg.camera_roll_deg) and abs(cfg.camera_roll_deg) <= 45, "camera_roll_deg",
+             "must be within [-45, 45] deg", cfg.camera_roll_deg)
 
 
 def plan_render(cfg: RenderConfig) -> RenderPlan:
@@ -138,13 +170,17 @@ def plan_render(cfg: RenderConfig) -> RenderPlan:
     """
     n_frames = check_render_config(cfg)
     given = parse_params(cfg.params)
+    if cfg.rig == "string" and "Omega0" not in given:
+        given = {"Omega0": string_omega0(length_m=cfg.spot_distance_m, radius_m=cfg.spot_radius_m,
+                                         gravity=cfg.gravity)} | given
     model, params = resolve_params(cfg.model, given, tile_length_m=cfg.tile_length_m, x=cfg.two_cuboid_x,
                                    l0_m=cfg.two_cuboid_l0_m, gravity=cfg.gravity)
     scene = scene_from_config(cfg)
     simulate = model_simulator(model, params, theta0=cfg.theta0, omega0=cfg.omega0, fps=cfg.fps)
     motion = sample_motion(simulate, n_frames=n_frames, fps=cfg.fps, exposure_s=cfg.exposure_s,
                            theta0=cfg.theta0, omega0=cfg.omega0,
-                           px_per_rad=scene.spot_distance_m * scene.px_per_m_max, step_px=cfg.blur_step_px)
+                           px_per_rad=scene.spot_distance_m * scene.px_per_m_max, step_px=cfg.blur_step_px,
+                           release_s=cfg.hand_release_s)
     code = run_code(tile_length_m=cfg.tile_length_m, omega0=cfg.omega0, alley=cfg.alley, trial=cfg.trial)
     return RenderPlan(config=cfg, scene=scene, model=model.name, params=params, motion=motion, run_code=code)
 
@@ -153,7 +189,8 @@ def make_renderer(plan: RenderPlan, *, use_numba: bool = True) -> FrameRenderer:
     """The frame renderer of a plan (precomputes the static picture; about a second at 720p)."""
     cfg = plan.config
     return FrameRenderer(plan.scene, alley=cfg.alley, gradient=cfg.illumination_gradient, vignetting=cfg.vignetting,
-                         noise_sigma=cfg.noise_sigma, seed=cfg.seed, use_numba=use_numba)
+                         noise_sigma=cfg.noise_sigma, seed=cfg.seed, use_numba=use_numba,
+                         hand_theta=cfg.theta0 if cfg.hand_release_s > 0 else None)
 
 
 def render_frames(plan: RenderPlan, *, use_numba: bool = True,
@@ -164,6 +201,6 @@ def render_frames(plan: RenderPlan, *, use_numba: bool = True,
     """
     renderer = make_renderer(plan, use_numba=use_numba)
     for k in range(plan.n_frames):
-        yield renderer.render(plan.motion.frame_thetas(k))
+        yield renderer.render(plan.motion.frame_thetas(k), hand=plan.motion.frame_hand(k))
         if on_progress is not None:
             on_progress(1)

@@ -10,6 +10,10 @@ inside) and ``size`` the pixel's footprint [m/px] -- a one-pixel linear ramp, wh
 symmetric about the edge so it does not move a blob's centroid.
 
 Motion blur: the output is the mean over the sub-sample angles of the exposure.
+
+Balls (part kind 2): a disc whose reflectance is shaded as a sphere's, Lambert plus a small
+white highlight, under a light fixed in the world (upper left, towards the camera), so the
+shading does not turn with the pendulum.
 """
 
 from __future__ import annotations
@@ -18,6 +22,17 @@ import functools
 import math
 
 import numpy as np
+
+# unit vectors in the world (X right, Y down, Z towards the camera): light, and the half-way
+# vector between it and the view direction (0, 0, 1), for the balls' shading
+_L = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0.70])
+_H = (_L + np.array([0.0, 0.0, 1.0])) / np.linalg.norm(_L + np.array([0.0, 0.0, 1.0]))
+LIGHT_X, LIGHT_Y, LIGHT_Z = (float(v) for v in _L)
+HALF_X, HALF_Y, HALF_Z = (float(v) for v in _H)
+BALL_AMBIENT = 0.40  # shade of the ball's side turned away from the light
+BALL_DIFFUSE = 0.75  # Lambert term's weight (0.4 + 0.75 cos: ~0.93 at the ball's centre)
+BALL_SPECULAR = 0.30  # white highlight's peak reflectance
+BALL_SHININESS = 24.0  # Blinn-Phong exponent
 
 
 def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, out_alpha):
@@ -39,7 +54,8 @@ def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, 
         ``sin`` and ``cos`` of the sub-sample angles [rad], ascending or descending;
         ``n >= 1``; the span of the angles must be well below 1 rad (one exposure).
     parts : ndarray, shape (n_parts, 8), float64
-        Parts back to front, see :meth:`pendtrack.render.scene.Scene.parts`.
+        Parts back to front, see :meth:`pendtrack.render.scene.Scene.parts` (kind 0 a
+        rectangle, 1 a disc, 2 a ball).
     out_bgr : ndarray, shape (h, w, 3), float32
         Written: mean over the sub-samples of the pendulum (reflectance x light) over
         ``back``, in 8-bit levels, BGR.
@@ -126,9 +142,19 @@ def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, 
                     if cov > 1.0:
                         cov = 1.0
                     cov *= parts[k, 7]
-                    col_b = col_b * (1.0 - cov) + parts[k, 4] * cov
-                    col_g = col_g * (1.0 - cov) + parts[k, 5] * cov
-                    col_r = col_r * (1.0 - cov) + parts[k, 6] * cov
+                    shade = 1.0
+                    gloss = 0.0
+                    if parts[k, 0] == 2.0:  # ball: the sphere's normal from the world offset to its centre
+                        da = (a - parts[k, 1]) / parts[k, 2]
+                        dc = c / parts[k, 2]
+                        nx = da * sin_t[s] + dc * cos_t[s]
+                        ny = da * cos_t[s] - dc * sin_t[s]
+                        nz = math.sqrt(max(1.0 - nx * nx - ny * ny, 0.0))
+                        shade = BALL_AMBIENT + BALL_DIFFUSE * max(nx * LIGHT_X + ny * LIGHT_Y + nz * LIGHT_Z, 0.0)
+                        gloss = BALL_SPECULAR * max(nx * HALF_X + ny * HALF_Y + nz * HALF_Z, 0.0) ** BALL_SHININESS
+                    col_b = col_b * (1.0 - cov) + (parts[k, 4] * shade + gloss) * cov
+                    col_g = col_g * (1.0 - cov) + (parts[k, 5] * shade + gloss) * cov
+                    col_r = col_r * (1.0 - cov) + (parts[k, 6] * shade + gloss) * cov
                     alpha = alpha * (1.0 - cov) + cov
                 acc_b += col_b
                 acc_g += col_g

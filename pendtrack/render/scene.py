@@ -13,12 +13,20 @@ plane, looking perpendicular to it, upright (image x along ``X``, image y along 
 The axle is deliberately off the optical axis: if it were on it, the fisheye would map the
 spot's circle to a circle for any field of view.
 
+*Roll*: the camera may be rolled by ``roll_deg`` about its optical axis. The image is then
+the upright image rotated about its centre so that a direction at angle ``theta`` from
+the vertical (``atan2(X, Y)``) appears at ``theta + roll`` in the image
+(``atan2(dx, dy)`` of image offsets, y down): the truth stays physical and
+``theta_image = theta + roll`` (:attr:`Scene.roll_rad`).
+
 *Lens*: a ray at angle ``phi`` from the optical axis lands at normalised radius
 ``rho = rho_from_angle(phi, projection, fov)`` (:mod:`pendtrack.lens.fisheye`), i.e. at
 pixel ``centre + R * rho * direction`` with ``centre = ((w - 1) / 2, (h - 1) / 2)`` and
 ``R`` the half diagonal -- the same conventions as :class:`pendtrack.lens.fisheye.Fisheye`,
 so ``Fisheye(...).undistort_points`` maps the pendulum's plane to the corrected image by a
-similarity and the corrected angle equals the true angle.
+similarity and the corrected angle equals the true angle (plus the roll). Projection
+``"none"`` is a normal lens: a pinhole (rectilinear) camera of diagonal field of view
+``fov``, which needs no correction (``Fisheye(projection="none")`` is the identity).
 
 *Pendulum frame* ``(a, c)``: ``a`` along the bar from the axle outwards, ``c`` across it.
 With the angle convention ``theta = atan2(dx, dy)`` (0 hanging down, + to the right) a
@@ -40,9 +48,18 @@ ArrayLike = np.ndarray | float
 # Part kinds in the parts table.
 RECT = 0.0
 CIRCLE = 1.0
+BALL = 2.0  # a disc shaded as a sphere lit from the upper left (world-fixed light)
 
 # Reflectances in [0, 1], BGR order (as the frames).
 SPOT_BGR = (0.70, 0.40, 0.98)  # pink
+MARKER_BGR = {  # the bob's named looks (render.marker_color, render.sticker_color)
+    "pink": SPOT_BGR,
+    "dark": (0.09, 0.09, 0.10),  # a dark grey ball
+    "blue": (0.80, 0.28, 0.10),  # a blue ball: RGB (26, 71, 204) at full light
+}
+STRING_BGR = (0.88, 0.90, 0.90)  # a pale cord
+STRING_HALF_WIDTH_M = 0.0008  # a 1.6 mm cord
+HOOK_RADIUS_M = 0.004  # the string's hook at the axle
 BAR_BGR = (0.36, 0.35, 0.33)  # grey anodised square bar
 ROD_BGR = (0.50, 0.50, 0.52)  # threaded steel rod
 DISC_BGR = (0.86, 0.86, 0.82)  # acrylic disc (partly transparent)
@@ -82,6 +99,20 @@ class Scene:
         The pink tracking spot: centre at ``a = spot_distance`` on the bar's axis [m].
     tile_length_m, tile_width_m : float
         The tile at the bar's end (``l1``; 0 = no tile) [m].
+    roll_deg : float
+        Camera roll about the optical axis [deg] (see the module docstring).
+    marker_bgr : tuple of float
+        The bob's reflectance, BGR in [0, 1] (default: the paper's pink spot).
+    marker_shape : str
+        ``"spot"`` (a flat disc) or ``"ball"`` (shaded as a sphere).
+    rig : str
+        ``"bar"`` (the paper's bar, acrylic disc and tile) or ``"string"`` (a thin cord
+        from the axle to the bob, nothing else moves).
+    sticker_bgr : tuple of float or None
+        A small sticker on the bob (reflectance), None for none. It sits on the bar's axis,
+        ``sticker_offset`` bob radii beyond the bob's centre, and turns with the pendulum.
+    sticker_radius_m : float
+        The sticker's radius [m].
     """
 
     width: int
@@ -98,6 +129,24 @@ class Scene:
     spot_radius_m: float = 0.012
     tile_length_m: float = 0.0
     tile_width_m: float = 0.18
+    roll_deg: float = 0.0
+    marker_bgr: tuple[float, float, float] = SPOT_BGR
+    marker_shape: str = "spot"
+    rig: str = "bar"
+    sticker_bgr: tuple[float, float, float] | None = None
+    sticker_radius_m: float = 0.004
+
+    #: the sticker's centre beyond the bob's, in bob radii (off centre, so it shows the bob's turning)
+    sticker_offset = 0.45
+
+    @property
+    def roll_rad(self) -> float:
+        """Camera roll [rad]: ``theta_image = theta + roll_rad``."""
+        return float(np.radians(self.roll_deg))
+
+    @property
+    def _ray_projection(self) -> str:
+        return "rectilinear" if self.projection == "none" else self.projection
 
     @property
     def fisheye(self) -> Fisheye:
@@ -116,19 +165,27 @@ class Scene:
         dy = np.asarray(y, dtype=float) - self.offset_m[1]
         s = np.hypot(dx, dy)
         phi = np.arctan2(s, self.distance_m + depth)
-        r_px = big_r * rho_from_angle(phi, self.projection, self._fov)
+        r_px = big_r * rho_from_angle(phi, self._ray_projection, self._fov)
         with np.errstate(invalid="ignore", divide="ignore"):
             scale = np.where(s > 0, r_px / np.where(s > 0, s, 1.0), 0.0)
-        return cx + dx * scale, cy + dy * scale
+        du, dv = self._rotate(dx * scale, dy * scale, self.roll_rad)
+        return cx + du, cy + dv
+
+    @staticmethod
+    def _rotate(dx: np.ndarray, dy: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
+        """Rotate offsets so that ``atan2(dx, dy)`` grows by ``angle`` [rad] (y down)."""
+        if angle == 0.0:
+            return dx, dy
+        c, s = np.cos(angle), np.sin(angle)
+        return dx * c + dy * s, dy * c - dx * s
 
     def unproject(self, u: ArrayLike, v: ArrayLike, depth: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Raw pixel ``(u, v)`` [px] -> lateral world coordinates [m] on the plane at ``depth`` [m]."""
         fe = self.fisheye
         (cx, cy), big_r = fe.centre, fe.half_diagonal
-        du = np.asarray(u, dtype=float) - cx
-        dv = np.asarray(v, dtype=float) - cy
+        du, dv = self._rotate(np.asarray(u, dtype=float) - cx, np.asarray(v, dtype=float) - cy, -self.roll_rad)
         r_px = np.hypot(du, dv)
-        phi = angle_from_rho(r_px / big_r, self.projection, self._fov)
+        phi = angle_from_rho(r_px / big_r, self._ray_projection, self._fov)
         s = (self.distance_m + depth) * np.tan(np.minimum(phi, np.radians(89.9)))
         with np.errstate(invalid="ignore", divide="ignore"):
             scale = np.where(r_px > 0, s / np.where(r_px > 0, r_px, 1.0), 0.0)
@@ -175,9 +232,9 @@ class Scene:
     def px_per_m_max(self) -> float:
         """Largest image scale on the pendulum's plane [px/m] (at the optical axis)."""
         eps = 1e-6
-        u0, _ = self.project(self.offset_m[0], self.offset_m[1])
-        u1, _ = self.project(self.offset_m[0] + eps, self.offset_m[1])
-        return float((u1 - u0) / eps)
+        u0, v0 = self.project(self.offset_m[0], self.offset_m[1])
+        u1, v1 = self.project(self.offset_m[0] + eps, self.offset_m[1])
+        return float(np.hypot(u1 - u0, v1 - v0) / eps)
 
     def parts(self) -> np.ndarray:
         """The pendulum's parts, back to front, as a table for the raster kernel.
@@ -186,19 +243,28 @@ class Scene:
         -------
         ndarray, shape (n_parts, 8), float64
             Columns ``kind, p0, p1, p2, b, g, r, opacity``. For ``kind == RECT``:
-            ``a`` in ``[p0, p1]``, ``|c| <= p2`` [m]. For ``kind == CIRCLE``: centre
-            ``(a, c) = (p0, 0)``, radius ``p1`` [m]. ``b, g, r`` reflectance in [0, 1].
+            ``a`` in ``[p0, p1]``, ``|c| <= p2`` [m]. For ``kind == CIRCLE`` and
+            ``kind == BALL``: centre ``(a, c) = (p0, 0)``, radius ``p1`` [m] (a ball is
+            shaded as a sphere). ``b, g, r`` reflectance in [0, 1].
         """
         rows = []
-        bar_start = self.l0_m - self.bar_length_m
-        if self.tile_length_m > 0:
-            rows.append((RECT, self.l0_m - self.tile_length_m, self.l0_m, self.tile_width_m / 2, *TILE_BGR, 1.0))
-        rows.append((RECT, -0.01, bar_start + 0.01, ROD_HALF_WIDTH_M, *ROD_BGR, 1.0))
-        rows.append((RECT, bar_start, self.l0_m, self.bar_width_m / 2, *BAR_BGR, 1.0))
-        rows.append((CIRCLE, 0.0, self.disc_radius_m, 0.0, *DISC_BGR, DISC_OPACITY))
-        rows.append((CIRCLE, 0.0, BEARING_RADIUS_M, 0.0, *BEARING_BGR, 1.0))
-        rows.append((CIRCLE, 0.0, AXLE_RADIUS_M, 0.0, *AXLE_BGR, 1.0))
-        rows.append((CIRCLE, self.spot_distance_m, self.spot_radius_m, 0.0, *SPOT_BGR, 1.0))
+        if self.rig == "string":
+            rows.append((RECT, -HOOK_RADIUS_M, self.spot_distance_m, STRING_HALF_WIDTH_M, *STRING_BGR, 1.0))
+            rows.append((CIRCLE, 0.0, HOOK_RADIUS_M, 0.0, *AXLE_BGR, 1.0))
+        else:
+            bar_start = self.l0_m - self.bar_length_m
+            if self.tile_length_m > 0:
+                rows.append((RECT, self.l0_m - self.tile_length_m, self.l0_m, self.tile_width_m / 2, *TILE_BGR, 1.0))
+            rows.append((RECT, -0.01, bar_start + 0.01, ROD_HALF_WIDTH_M, *ROD_BGR, 1.0))
+            rows.append((RECT, bar_start, self.l0_m, self.bar_width_m / 2, *BAR_BGR, 1.0))
+            rows.append((CIRCLE, 0.0, self.disc_radius_m, 0.0, *DISC_BGR, DISC_OPACITY))
+            rows.append((CIRCLE, 0.0, BEARING_RADIUS_M, 0.0, *BEARING_BGR, 1.0))
+            rows.append((CIRCLE, 0.0, AXLE_RADIUS_M, 0.0, *AXLE_BGR, 1.0))
+        kind = BALL if self.marker_shape == "ball" else CIRCLE
+        rows.append((kind, self.spot_distance_m, self.spot_radius_m, 0.0, *self.marker_bgr, 1.0))
+        if self.sticker_bgr is not None:
+            rows.append((CIRCLE, self.spot_distance_m + self.sticker_offset * self.spot_radius_m,
+                         self.sticker_radius_m, 0.0, *self.sticker_bgr, 1.0))
         return np.array(rows, dtype=np.float64)
 
     def outline(self, n_edge: int = 8) -> tuple[np.ndarray, np.ndarray]:
@@ -249,4 +315,31 @@ def scene_from_config(cfg: RenderConfig) -> Scene:
         spot_radius_m=cfg.spot_radius_m,
         tile_length_m=cfg.tile_length_m,
         tile_width_m=cfg.tile_width_m,
+        roll_deg=cfg.camera_roll_deg,
+        marker_bgr=marker_reflectance(cfg.marker_color),
+        marker_shape=cfg.marker_shape,
+        rig=cfg.rig,
+        sticker_bgr=marker_reflectance(cfg.sticker_color) if cfg.sticker_color else None,
+        sticker_radius_m=cfg.sticker_radius_m,
     )
+
+
+def marker_reflectance(colour: str) -> tuple[float, float, float]:
+    """BGR reflectance in [0, 1] of a bob or sticker colour: a name of :data:`MARKER_BGR` or ``#RRGGBB``.
+
+    Raises
+    ------
+    ValueError
+        Any other text.
+    """
+    key = colour.strip().lower()
+    if key in MARKER_BGR:
+        return MARKER_BGR[key]
+    if len(key) == 7 and key[0] == "#":
+        try:
+            r, g, b = (int(key[i:i + 2], 16) / 255.0 for i in (1, 3, 5))
+        except ValueError:
+            pass
+        else:
+            return b, g, r
+    raise ValueError(f"unknown colour {colour!r}; expected {', '.join(MARKER_BGR)} or #RRGGBB")

@@ -1,0 +1,87 @@
+"""CI of issue 15: `pendtrack run VIDEO [--projection none] [--marker-color dark|blue]` on field renders.
+
+Each condition of :data:`field_run.CONDITIONS` is rendered small and short (640x360, 12 s;
+one at 1080p) and run through the whole pipeline with no other flag than the lens and the
+marker's colour, as a new user would. Targets (issue 15, "Done when"): >= 99 % of the frames
+where the marker is visible tracked ok, theta within 2 mrad RMS of the truth (README's zero
+convention, the camera's roll included; see :mod:`field_run`), Omega0 of every fitted model
+(classic, opa, fractional) within 0.1 % of the renderer's.
+
+`run` fits three models with 150 starts each and is slow: two conditions run by default (a
+dark ball on a string through a normal lens at 30 fps with the axle above the frame; a blue
+ball held by a hand for 2 s, at 60 fps), the others (the roll, the sticker, 1080p, each
+condition alone, the balls on the paper's bar) are marked slow. A target missed because of code outside the renderer is an
+``xfail(strict=True)`` naming the measured figure, so that a fix shows as XPASS.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
+
+DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_60fps")
+MODELS = ("classic", "opa", "fractional")
+
+# (condition, what) -> why it fails today, with the figure measured on 2026-11-23 (what: "tracking"
+# or a model). Every other (condition, what) met its target then; figures in the session's report.
+_FRACTIONAL_30FPS = ("fitting: the fractional model's Omega0 is off by {} at 30 fps (1.14e-3 on the paper's pink "
+                     "spot at 30 fps too, 2.6e-4 at 60 fps); classic and OPA are within 4e-5")
+_STICKER = ("tracking: a sticker turning with the bob biases the template match: theta {} mrad RMS with every "
+            "visible frame ok (the same bob without the sticker: 0.74 mrad)")
+KNOWN: dict[tuple[str, str], str] = {
+    ("dark_string_normal_lens_30fps_axle_out", "fractional"): _FRACTIONAL_30FPS.format("1.65e-3"),
+    ("fps30", "fractional"): _FRACTIONAL_30FPS.format("1.14e-3"),
+    ("blue_ball_hand_sticker_60fps", "tracking"): _STICKER.format("2.57 (mean -1.4)"),
+    ("blue_ball_hand_sticker_60fps", "classic"): "from the sticker's theta error (2.57 mrad): Omega0 off by 1.5e-3",
+    ("blue_ball_hand_sticker_60fps", "fractional"): "from the sticker's theta error (2.57 mrad): Omega0 off by 5.7e-3",
+    ("sticker", "tracking"): _STICKER.format("4.42"),
+}
+_ON_BAR = {
+    "dark_ball_on_bar": "tracking: 'marker lost in 528 of 720 frames' (exit 2): the dark grey bar through the "
+                        "dark ball rotates inside the template",
+    # NB: main's track code of d1f3dce tracks this one (100 % ok, 1.16 mrad): drop these marks after the merge
+    "blue_ball_on_bar": "tracking: 'marker lost in 555 of 720 frames' (exit 2): acquisition by motion took a "
+                        "17-px blob of the grey bar (bluer than the warm wall), 85 px from the ball",
+}
+KNOWN |= {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
+
+
+def _marks(condition: str, what: str) -> list:
+    marks = [] if condition in DEFAULT else [pytest.mark.slow]
+    if (condition, what) in KNOWN:
+        marks.append(pytest.mark.xfail(strict=True, reason=KNOWN[condition, what]))
+    return marks
+
+
+@pytest.fixture(scope="module")
+def scored(tmp_path_factory):
+    """``scored(condition) -> Score``: rendered and run once per condition and module."""
+    cache = {}
+
+    def get(condition: str):
+        if condition not in cache:
+            base = tmp_path_factory.mktemp(condition)
+            values = CONDITIONS[condition]
+            folder = render_condition(base / "render", values)
+            cache[condition] = run_and_score(folder, base / "run", flags_for(values))
+        return cache[condition]
+
+    return get
+
+
+@pytest.mark.parametrize("condition", [pytest.param(c, marks=_marks(c, "tracking")) for c in CONDITIONS])
+def test_run_tracks_the_visible_frames_within_2_mrad(scored, condition):
+    score = scored(condition)
+    assert score.returncode in (0, 1), score.stderr  # 1: a fit did not converge (judged below), no crash
+    assert "Traceback" not in score.stderr
+    assert score.ok_visible >= OK_MIN, score
+    assert score.theta_rms <= THETA_RMS_MAX, score
+
+
+@pytest.mark.parametrize("condition, model", [pytest.param(c, m, marks=_marks(c, m)) for c in CONDITIONS
+                                              for m in MODELS])
+def test_run_finds_omega0_within_0_1_percent(scored, condition, model):
+    score = scored(condition)
+    assert model in score.omega0_rel, score
+    assert score.omega0_rel[model] <= OMEGA0_REL_MAX, score
