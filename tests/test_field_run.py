@@ -40,9 +40,6 @@ KNOWN: dict[tuple[str, str], str] = {
 _ON_BAR = {
     "dark_ball_on_bar": "tracking: 'marker lost in 528 of 720 frames' (exit 2): the dark grey bar through the "
                         "dark ball rotates inside the template",
-    # NB: main's track code of d1f3dce tracks this one (100 % ok, 1.16 mrad): drop these marks after the merge
-    "blue_ball_on_bar": "tracking: 'marker lost in 555 of 720 frames' (exit 2): acquisition by motion took a "
-                        "17-px blob of the grey bar (bluer than the warm wall), 85 px from the ball",
 }
 KNOWN |= {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
 
