@@ -29,12 +29,14 @@ if not REAL.is_file():  # the work tree may sit elsewhere; the shared data do no
 
 RATE = 60.0
 L, PX, PY = 0.65, 0.3, 1.2  # pendulum length and pivot of the x, y forms [m], y up
+# Damping large enough that the standard fit determines each of its three terms on 8 s at 1 mrad
+# noise (weaker ones, e.g. C2 = 0.002, are honestly flagged "not determined" and `fit` exits 1).
+SWING = {"Omega0": 5.0, "C1": 0.1, "C0": 0.05, "C2": 0.05}
 
 
 def _swing(seconds: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
     t = np.arange(int(seconds * RATE)) / RATE
-    sim = simulate(get_model("standard"), {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}, t,
-                   theta0=0.5, omega0=0.0)
+    sim = simulate(get_model("standard"), SWING, t, theta0=1.0, omega0=0.0)
     return t, sim.theta + np.random.default_rng(0).normal(0.0, 1e-3, t.size)
 
 
@@ -333,8 +335,7 @@ def _jittered(seconds: float = 8.0, jitter: float = 0.1) -> tuple[np.ndarray, np
     rng = np.random.default_rng(2)
     t = t_grid + rng.uniform(-jitter, jitter, t_grid.size) / RATE
     t[0] = 0.0  # the motion starts at the first sample (simulate starts there)
-    sim = simulate(get_model("standard"), {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}, t,
-                   theta0=0.5, omega0=0.0)
+    sim = simulate(get_model("standard"), SWING, t, theta0=1.0, omega0=0.0)
     return t, sim.theta
 
 
@@ -353,11 +354,10 @@ def test_slightly_uneven_times_are_resampled_by_a_cubic_spline(tmp_path):
     from scipy.interpolate import CubicSpline
 
     fine = np.arange(0, 8.1, 1e-3)
-    ref = simulate(get_model("standard"), {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}, fine,
-                   theta0=0.5, omega0=0.0).theta
+    ref = simulate(get_model("standard"), SWING, fine, theta0=1.0, omega0=0.0).theta
     truth = CubicSpline(fine, ref)(rec.t)
-    # 1e-6 rad: the cubic spline's error on a 0.5 rad, 5 rad/s swing at 60 Hz (order h^4) measured 5e-8;
-    # linear interpolation of the same times is off by 1.1e-3 (order h^2), far above tracking noise
+    # 1e-6 rad: the cubic spline's error on a 1 rad, 5 rad/s swing at 60 Hz (order h^4) measured 2.7e-7;
+    # linear interpolation of the same times is off by ~1e-3 (order h^2), far above tracking noise
     assert np.max(np.abs(rec.theta - truth)) < 1e-6
 
 
