@@ -173,3 +173,25 @@ def test_plausibility_flags_judge_a_measurement_parameter_by_its_error_only():
     se[2] = np.nan
     assert "theta_off" in plausibility_flags(names, x, se, lo, hi, t_start=0.0, t_end=30.0, floors=floors,
                                              nuisance=("theta_off",))
+
+
+def test_a_held_offset_is_the_models_zero():
+    """``fixed={"theta_off": x}``: the start of the model's angle is the data's less x, and the fit keeps x."""
+    from pendtrack.config import ModelsConfig
+    from pendtrack.fitting.estimate import estimate
+    from pendtrack.fitting.record import Record
+
+    t, theta, omega, alpha, ok, obs = record(lambda th: th + OFFSET)
+    rec = Record(t, theta, omega, alpha=alpha, ok=ok, observation=obs)
+    model = compose("standard", ["offset"])
+    free = estimate(model, rec, options=options(), model_options=ModelsConfig())
+    held = estimate(model, rec, options=options(), model_options=ModelsConfig(), fixed={"theta_off": 0.0})
+    first = float(theta[np.flatnonzero(rec.usable())[0]])
+    assert free.estimates["theta_off"] == pytest.approx(OFFSET, abs=1e-3)  # the oscillation's centre
+    assert free.estimates["theta0"] == pytest.approx(first - free.estimates["theta_off"], abs=1e-12)
+    assert held.estimates["theta0"] == pytest.approx(first, abs=1e-12)
+    assert "theta_off" not in held.problem.names
+    res = fit_model(model, t, theta, omega, alpha=alpha, ok=ok, observation=obs, options=options(), seed=0,
+                    workers=1, fixed={"theta_off": 0.0})
+    assert res.params["theta_off"].fixed and res.params["theta_off"].value == 0.0
+    assert res.to_dict()["fixed"] == ["theta_off"]

@@ -105,6 +105,9 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     grid, (th_g, om_g), present = uniform_series(problem, record.t, [record.theta, record.omega], mask)
     meas_start, meas_scale = measurement_estimates(model, summary)
     theta_off_hat = meas_start.get("theta_off", 0.0)
+    for given in (initial, fixed):  # a warm start's or a held zero offset is the model's (fixed wins)
+        if "theta_off" in meas_start and given and "theta_off" in given:
+            theta_off_hat = float(given["theta_off"])
     # the physics on the model's angle: the data's angle less the estimated zero offset
     est = equation_error_estimates(model.physics() if meas_start else model, grid, th_g - theta_off_hat, om_g,
                                    omega0_hat=summary.omega0_hat, memory_s=memory_s, full_history=full_history,
@@ -131,7 +134,7 @@ def measurement_estimates(model: Any, summary: DataSummary) -> tuple[dict[str, f
 
     ``theta_off`` [rad]: the centre of the oscillation (:attr:`DataSummary.theta_center`, from
     the turning points), its standard error as the scale; ``k_scale`` [1/rad^2]: 0 (no scale
-    error), its scale a 1 % angle error at the record's amplitude.
+    error), its scale a 1 % angle error at the record's amplitude (a third of the start half-width).
     """
     values: dict[str, float] = {}
     scales: dict[str, float] = {}
