@@ -172,7 +172,12 @@ def test_hidden_marker_frames_are_not_ok_and_tracking_resumes():
     hidden = np.zeros(60, bool)
     hidden[20:30] = True
     np.testing.assert_array_equal(res.ok, ~hidden)
-    assert (res.score[hidden] < 0.6).all()
+    # the hole filling (hole_share) smooths the wall's noise into blobs that score up to ~0.7 against
+    # the marker's template: the contrast check is what rejects them (ok above); the score alone does
+    # so without the filling, and a visible marker still scores far higher
+    assert res.score[hidden].max() < 0.8 < res.score[~hidden].min()
+    bare = track_frames(frames, sampler=raw_sampler(), params=TrackParams(hole_share=0.0))
+    assert (bare.score[hidden] < 0.6).all()
     err = np.hypot(res.x - truth[:, 0], res.y - truth[:, 1])[~hidden]
     assert err.max() < 0.25
 

@@ -133,3 +133,36 @@ def weighted_centroid(window: np.ndarray, x: float, y: float, radius: float, bac
     if total <= 0:
         return None
     return float((wgt * xx).sum() / total), float((wgt * yy).sum() / total)
+
+
+
+def fill_holes(feature: np.ndarray, radius_px: float) -> np.ndarray:
+    """The feature with the dips inside a marker filled: a grey closing with a flat disc.
+
+    A sticker of another colour on a ball turns with it; matched against a template cut
+    with the sticker elsewhere it pulls the match off the ball's centre (by up to a few
+    tenths of a px, mostly across the swing: several mrad of theta). The closing (a
+    dilation, then an erosion, by a disc of ``radius_px``) lifts every dip narrower than
+    the disc to the level around it -- in the template and in each search window alike --
+    and leaves a round marker's outline as it is: a convex blob, or a profile that falls
+    off with the distance from its centre, passes unchanged. Dips wider than the disc
+    and everything outside the marker keep their shape, less the gaps narrower than the
+    disc between bright neighbours.
+
+    Parameters
+    ----------
+    feature : ndarray, float32
+        Feature window (see :mod:`pendtrack.track.colour`).
+    radius_px : float
+        Radius of the disc [px], rounded to whole px; below 1 px the feature is returned as is.
+
+    Returns
+    -------
+    ndarray, float32
+        Same shape.
+    """
+    k = int(round(radius_px))
+    if k < 1:
+        return feature
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * k + 1, 2 * k + 1))
+    return cv2.morphologyEx(feature, cv2.MORPH_CLOSE, disc, borderType=cv2.BORDER_REPLICATE)
