@@ -108,6 +108,19 @@ def test_weighted_centroid():
     assert weighted_centroid(np.zeros((9, 9), np.float32), 4, 4, 3, 0, 0.5) is None
 
 
+def test_fill_holes_fills_a_sticker_and_keeps_the_outline():
+    from pendtrack.track.match import fill_holes
+
+    ball = disc(41, 41, 20.3, 19.6, 9.0) * 40 + 5
+    sticker = ball - 60 * disc(41, 41, 23.0, 17.0, 2.7)  # 0.3 radii, off centre: a dip below the wall
+    filled = fill_holes(sticker.astype(np.float32), 0.8 * 9.0)
+    # the dip is lifted to the ball's level (within the anti-aliased rim's 1/16 steps)
+    assert np.abs(filled - ball)[disc(41, 41, 20.3, 19.6, 7.0) > 0].max() < 3.0
+    # a plain ball passes unchanged (a convex blob)
+    assert np.abs(fill_holes(ball.astype(np.float32), 7.2) - ball).max() < 1e-4
+    assert fill_holes(sticker.astype(np.float32), 0.4) is not None  # below 1 px: as is
+
+
 # --- detection -----------------------------------------------------------------------------
 
 def test_find_marker_by_colour_and_not_when_absent():
