@@ -47,7 +47,7 @@ from pendtrack.errors import TrackingError
 from pendtrack.track.circle import fit_circle_pratt
 from pendtrack.track.colour import MarkerColour
 from pendtrack.track.detect import Detection, marker_candidates, marker_in_roi
-from pendtrack.track.match import fill_holes, match_template, weighted_centroid
+from pendtrack.track.match import fill_holes, fill_reach, match_template, weighted_centroid
 from pendtrack.track.sampler import RawSampler
 
 log = logging.getLogger(__name__)
@@ -102,10 +102,12 @@ class TrackParams:
         Dips of the feature inside the marker narrower than a disc of this share of its
         radius are filled (:func:`pendtrack.track.match.fill_holes`) in the template and in
         every search window, so a sticker turning with a ball does not pull the match off
-        its centre; 0 = off. 0.8: measured on renders of a sticker of 0.3 radii 0.45 radii
-        off a ball's centre (theta 2.57 -> 0.64 mrad RMS) and of 0.33 radii on the paper's
-        spot of 6 px (4.42 -> 1.50 mrad; 1.30 without the sticker); 1.0 starts to fill the
-        gap between a ball and its string (1.77 mrad).
+        its centre; 0 = off. Only pixels the filling lifts to half the marker's contrast
+        change. 0.8: measured on the field renders (tests/field_run.py) of a sticker of 0.3
+        radii 0.45 radii off a blue ball's centre (theta 2.57 -> 0.72 mrad RMS) and of 0.33
+        radii on the paper's spot of 6 px (4.42 -> 1.38 mrad; 1.31 without the sticker);
+        0.6 fills less of the sticker's blur (0.79 and 1.46 mrad); every other condition
+        within 0.01 mrad of no filling.
     """
 
     min_score: float = 0.6
@@ -210,8 +212,9 @@ class TrackResult:
 class _Template:
     """The template (float32, odd square side) and what the centroid refinement needs."""
 
-    def __init__(self, image: np.ndarray, radius: float, contrast: float) -> None:
+    def __init__(self, image: np.ndarray, radius: float, contrast: float, background: float = 0.0) -> None:
         self.image = np.ascontiguousarray(image, dtype=np.float32)
+        self.background = background
         self.std = float(self.image.std())
         self.half = image.shape[0] // 2
         self.radius = radius
@@ -252,9 +255,27 @@ def make_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     x1, y1 = int(np.floor(tx)) + pad + 2, int(np.floor(ty)) + pad + 2
     if x0 < 0 or y0 < 0 or x1 > sampler.width or y1 > sampler.height:
         raise TrackingError("the marker is too close to the frame's edge in the first frame")
-    win = fill_holes(sampler.window(y, u, v, x0, y0, x1 - x0, y1 - y0), hole_share * radius)
+    win = filled_window(sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, hole_share * radius,
+                        det.background + 0.5 * det.contrast)
     image = cv2.getRectSubPix(win, (side, side), (tx - x0, ty - y0))
-    return _Template(image, radius, det.contrast), tx, ty
+    return _Template(image, radius, det.contrast, det.background), tx, ty
+
+
+def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarray, x0: int, y0: int, w: int,
+                  h: int, radius_px: float, level: float) -> np.ndarray:
+    """The sampler's feature window with the marker's dips filled (:func:`pendtrack.track.match.fill_holes`).
+
+    The closing runs on a window grown by its reach (clipped to the frame), so each pixel's
+    filled value depends on the image only, not on where the window ends: the template and
+    every search window see the same filled marker.
+    """
+    k = fill_reach(radius_px)
+    if k < 1:
+        return sampler.window(y, u, v, x0, y0, w, h)
+    gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
+    gx1, gy1 = min(x0 + w + k, sampler.width), min(y0 + h + k, sampler.height)
+    big = fill_holes(sampler.window(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
+    return np.ascontiguousarray(big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w])
 
 
 def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tuple[float, float]:
@@ -358,7 +379,9 @@ class MarkerTracker:
         x1, y1 = min(cx + reach + 1, self.sampler.width), min(cy + reach + 1, self.sampler.height)
         if x1 - x0 <= 2 * half or y1 - y0 <= 2 * half:
             return None
-        win = self._clean(self.sampler.window(y, u, v, x0, y0, x1 - x0, y1 - y0))
+        t = self.template
+        win = filled_window(self.sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, self.params.hole_share * t.radius,
+                            t.background + 0.5 * t.contrast)
         m = match_template(win, tpl_img)
         if m is None:
             return None
@@ -368,10 +391,6 @@ class MarkerTracker:
         ratio = float(cv2.meanStdDev(win[m.iy:m.iy + side, m.ix:m.ix + side])[1][0, 0]) / (tpl_std + 1e-12)
         r = self.params.min_contrast_ratio
         return m.score, x0 + m.x, y0 + m.y, edge, win, x0, y0, r <= ratio <= 1.0 / r
-
-    def _clean(self, win: np.ndarray) -> np.ndarray:
-        """The window with the dips inside the marker filled (see :func:`pendtrack.track.match.fill_holes`)."""
-        return fill_holes(win, self.params.hole_share * self.template.radius)
 
     def _whole_frame(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[float, float] | None:
         """Coarse marker centre from a half-resolution whole-frame search."""
@@ -442,7 +461,9 @@ class MarkerTracker:
             wx0, wy0 = int(np.floor(cx)) - pad, int(np.floor(cy)) - pad
             if wx0 < 0 or wy0 < 0 or wx0 + 2 * pad + 2 > cs.width or wy0 + 2 * pad + 2 > cs.height:
                 return
-            cwin = self._clean(cs.window(y, u, v, wx0, wy0, 2 * pad + 2, 2 * pad + 2))
+            t = self.template
+            cwin = filled_window(cs, y, u, v, wx0, wy0, 2 * pad + 2, 2 * pad + 2, self.params.hole_share * t.radius,
+                                 t.background + 0.5 * t.contrast)
             patch = cv2.getRectSubPix(cwin, shape, (cx - wx0, cy - wy0))
             self._warp_key = None
             self._warp_jac = None
