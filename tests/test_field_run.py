@@ -32,9 +32,10 @@ KNOWN: dict[tuple[str, str], str] = {
     ("fps30", "fractional"): _FRACTIONAL_30FPS.format("1.14e-3"),
 }
 _ON_BAR = {
-    "dark_ball_on_bar": "acquisition (measured 2026-11-24): the ball's path over the first 0.5 s is passed over as no "
-                        "arc (rejected_paths 1) and something dark 50 px from the axle is tracked instead ('unclear' "
-                        "path; 99.9 % ok, theta meaningless); before the sticker fix: 'marker lost in 528 of 720 frames'",
+    "dark_ball_on_bar": "acquisition (measured 2026-11-24): 'marker lost in 530 of 719 frames' (exit 2). The ball is "
+                        "no dark candidate in most frames (its blob merges with the dark grey bar: not compact), so "
+                        "the moving candidate acquired is a piece of the bar 50 px from the axle (path 'unclear'; the "
+                        "ball's few detections were passed over as no arc), whose template the turning bar then loses",
 }
 KNOWN |= {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
 
