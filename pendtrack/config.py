@@ -66,7 +66,7 @@ class TrackConfig:
     acquire_step_s: float = 0.05  # before the marker is found, look for it every this often (then refine back) [s]
     acquire_window_s: float = 0.5  # candidates are told apart by their motion over this time after acquisition [s]
     max_drift_px: float = 3.0  # an evolving template is re-anchored on the first when it drifts further [px]
-    hole_share: float = 0.8  # dips inside the marker narrower than this share of its radius are filled (a sticker) [1]
+    hole_share: float = 0.6  # dips inside the marker narrower than this share of its radius are filled (a sticker) [1]
 
 
 @dataclass(frozen=True, kw_only=True)

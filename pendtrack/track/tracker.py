@@ -103,11 +103,12 @@ class TrackParams:
         radius are filled (:func:`pendtrack.track.match.fill_holes`) in the template and in
         every search window, so a sticker turning with a ball does not pull the match off
         its centre; 0 = off. Only pixels the filling lifts to half the marker's contrast
-        change. 0.8: measured on the field renders (tests/field_run.py) of a sticker of 0.3
-        radii 0.45 radii off a blue ball's centre (theta 2.57 -> 0.72 mrad RMS) and of 0.33
-        radii on the paper's spot of 6 px (4.42 -> 1.38 mrad; 1.31 without the sticker);
-        0.6 fills less of the sticker's blur (0.79 and 1.46 mrad); every other condition
-        within 0.01 mrad of no filling.
+        change. 0.6: measured on the field renders (tests/field_run.py) of a sticker of 0.3
+        radii 0.45 radii off a blue ball's centre (theta 2.57 -> 0.79 mrad RMS) and of 0.33
+        radii on the paper's spot of 6 px (4.42 -> 1.46 mrad; 1.31 without the sticker),
+        every other condition within 0.01 mrad of no filling; 0.8 fills a little more of
+        the sticker's blur (0.72, 1.38 mrad) but bridges the gap between a dark ball and the
+        dark floor just below it (0.24 -> 0.66 mrad).
     """
 
     min_score: float = 0.6
@@ -120,7 +121,7 @@ class TrackParams:
     acquire_step_s: float = 0.05
     acquire_window_s: float = 0.5
     max_drift_px: float = 3.0
-    hole_share: float = 0.8
+    hole_share: float = 0.6
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.acquire_step_s) and self.acquire_step_s > 0):
