@@ -2,10 +2,16 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_track.py [VIDEO] [--repeats N]
+    .venv/bin/python benchmarks/bench_track.py [VIDEO ...] [--repeats N]
 
-VIDEO defaults to ``sample_videos/12na1.mp4`` (a rendered 1280x720, 120 fps H.264 run,
-10 s). Each repetition measures, back to back on the same file:
+VIDEO defaults to two cases, each measured and printed on its own:
+
+* ``sample_videos/12na1.mp4``: a rendered 1280x720, 120 fps H.264 run, 10 s;
+* a rendered 1920x1080, 60 fps run (a phone's 1080p video: a blue ball on a string,
+  normal lens, 10 s), rendered once by the project's renderer into
+  ``.benchmarks/bench_1080p60/video.mp4`` (git-ignored) and reused afterwards.
+
+Each repetition measures, back to back on the same file:
 
 * ``decode 1T``   -- PyAV decode only (``for f in container.decode(stream): pass``),
                      one decoder thread (``thread_count = 1``), no pixel conversion;
@@ -37,6 +43,29 @@ import av
 from pendtrack.config import Config
 
 ROOT = Path(__file__).resolve().parents[1]
+CACHE_1080P = ROOT / ".benchmarks" / "bench_1080p60"
+# the 1080p case: what issue 15's phone video looks like (its field conditions but the hand and the sticker)
+RENDER_1080P = dict(width=1920, height=1080, fps=60.0, seconds=10.0, theta0=1.0, rig="string", marker_color="blue",
+                    marker_shape="ball", spot_radius_m=0.02, lens_projection="none", lens_fov_deg=75.0,
+                    camera_offset_m=(0.0, 0.13), seed=0)
+
+
+def video_1080p60() -> Path:
+    """The rendered 1080p/60 fps video, rendered on first use into :data:`CACHE_1080P`."""
+    video = CACHE_1080P / "video.mp4"
+    if not video.is_file():
+        from pendtrack.stages.render import render_stage
+
+        print(f"rendering the 1080p/60 fps case into {CACHE_1080P} (once) ...", flush=True)
+        render_stage(out_dir=CACHE_1080P, config=Config().replace("render", **RENDER_1080P), progress=False)
+    return video
+
+
+def config_for(video: Path) -> Config:
+    """The stage's config for a case: the 1080p render is a blue ball through a normal lens."""
+    if video.resolve() == (CACHE_1080P / "video.mp4").resolve():
+        return Config().replace("lens", projection="none").replace("track", marker_color="blue")
+    return Config()
 
 
 def decode_only(video: Path, *, threads: bool) -> tuple[int, float, float]:
@@ -60,16 +89,22 @@ def track(video: Path, out: Path, *, threads: bool, prefetch: int) -> tuple[int,
 
     st.DECODE_THREADS, st.DECODE_PREFETCH = threads, prefetch
     w0, c0 = time.perf_counter(), time.process_time()
-    res = st.track_stage(video, out_dir=out, config=Config(), force=True, progress=False)
+    res = st.track_stage(video, out_dir=out, config=config_for(video), force=True, progress=False)
     return int(res.facts["frames"]), time.perf_counter() - w0, time.process_time() - c0
 
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("video", nargs="?", default=str(ROOT / "sample_videos" / "12na1.mp4"))
+    ap.add_argument("video", nargs="*", help="videos to measure (default: the 720p/120 and 1080p/60 cases)")
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args(argv)
-    video = Path(args.video)
+    videos = [Path(v) for v in args.video] or [ROOT / "sample_videos" / "12na1.mp4", video_1080p60()]
+    for video in videos:
+        measure(video, args.repeats)
+
+
+def measure(video: Path, repeats: int) -> None:
+    """Measure and print one video's rates and ratios."""
     import pendtrack.stages.track as st
 
     defaults = (st.DECODE_THREADS, st.DECODE_PREFETCH)
@@ -78,7 +113,7 @@ def main(argv: list[str] | None = None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         track(video, out, threads=False, prefetch=0)  # warm-up: imports, file cache
-        for _ in range(args.repeats):
+        for _ in range(repeats):
             runs = {
                 "decode 1T": lambda: decode_only(video, threads=False),
                 "track 1T": lambda: track(video, out, threads=False, prefetch=0),
@@ -97,7 +132,7 @@ def main(argv: list[str] | None = None) -> None:
     print(f"video: {video} ({info.codec_context.width}x{info.codec_context.height}, {info.frames} frames, "
           f"{float(info.average_rate):g} fps, {info.codec_context.name})")
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the end; "
-          f"{args.repeats} repetitions, medians; stage defaults: threads={defaults[0]}, prefetch={defaults[1]}")
+          f"{repeats} repetitions, medians; stage defaults: threads={defaults[0]}, prefetch={defaults[1]}")
     print(f"{'':14s}{'wall fps':>10s}{'cpu fps':>10s}   (min..max wall)")
     for k in wall:
         print(f"{k:14s}{med[k]:10.0f}{medc[k]:10.0f}   ({min(wall[k]):.0f}..{max(wall[k]):.0f})")

@@ -67,6 +67,7 @@ class TrackConfig:
     acquire_step_s: float = 0.05  # before the marker is found, look for it every this often (then refine back) [s]
     acquire_window_s: float = 0.5  # candidates are told apart by their motion over this time after acquisition [s]
     max_drift_px: float = 3.0  # an evolving template is re-anchored on the first when it drifts further [px]
+    hole_share: float = 0.6  # dips inside the marker narrower than this share of its radius are filled (a sticker) [1]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -299,6 +300,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "track.acquire_step_s": (_gt(0),),
     "track.acquire_window_s": (_ge(0),),
     "track.max_drift_px": (_gt(0),),
+    "track.hole_share": (_within(0, 2),),
     "angle.axle": (_sizes(0, 2, what="[] or [x, y]"),),
     "angle.rest_seconds": (_gt(0),),
     "angle.rest_omega_max": (_gt(0),),

@@ -25,18 +25,13 @@ MODELS = ("classic", "opa", "fractional")
 
 # (condition, what) -> why it fails today, with the figure measured on 2026-11-23 (what: "tracking"
 # or a model). Every other (condition, what) met its target then; figures in the session's report.
-_STICKER = ("tracking: a sticker turning with the bob biases the template match: theta {} mrad RMS with every "
-            "visible frame ok (the same bob without the sticker: 0.74 mrad)")
 KNOWN: dict[tuple[str, str], str] = {
-    ("blue_ball_hand_sticker_60fps", "tracking"): _STICKER.format("2.57 (mean -1.4)"),
-    ("blue_ball_hand_sticker_60fps", "classic"): "from the sticker's theta error (2.57 mrad): Omega0 off by 1.5e-3",
-    ("blue_ball_hand_sticker_60fps", "fractional"): "from the sticker's theta error (2.57 mrad): Omega0 off by 3.5e-3 "
-                                                    "(5.7e-3 before theta's zero was fitted; 2026-11-24)",
-    ("sticker", "tracking"): _STICKER.format("4.42"),
 }
 _ON_BAR = {
-    "dark_ball_on_bar": "tracking: 'marker lost in 528 of 720 frames' (exit 2): the dark grey bar through the "
-                        "dark ball rotates inside the template",
+    "dark_ball_on_bar": "acquisition (measured 2026-11-24): 'marker lost in 530 of 719 frames' (exit 2). The ball is "
+                        "no dark candidate in most frames (its blob merges with the dark grey bar: not compact), so "
+                        "the moving candidate acquired is a piece of the bar 50 px from the axle (path 'unclear'; the "
+                        "ball's few detections were passed over as no arc), whose template the turning bar then loses",
 }
 KNOWN |= {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
 

@@ -109,6 +109,26 @@ def test_missing_stages_are_said_not_failed(tmp_path):
     assert "data-figure-error" not in html
 
 
+@pytest.mark.parametrize("alarm", [True, False])
+def test_template_drift_alarm_is_stated_and_prominent_when_it_fired(tmp_path, alarm):
+    from pendtrack.artifacts import Provenance, read_artifact, write_artifact
+
+    run = write_run(tmp_path / "12na1", seconds=8.0, stages=("track", "angle"), discovery=False)
+    track = read_artifact(run / "track.parquet", "track")
+    drift = {"max_px": 4.2 if alarm else 1.1, "reanchors": 3 if alarm else 0, "limit_px": 3.0, "alarm": alarm}
+    write_artifact(track.data, run / "track.parquet", "track", provenance=Provenance(
+        stage="track", config={"track": {"min_score": 0.6, "evolution_rate": 0.2}, "lens": {}},
+        extra={**track.provenance.extra, "template_drift": drift}))
+    html = write_run_report(run).read_text(encoding="utf-8")
+    assert "template drift" in html
+    if alarm:
+        assert "Template drift alarm" in html and "4.20 px" in html and "3 time" in html
+        # the alarm note comes first in the overview, before the facts
+        assert html.index("Template drift alarm") < html.index("template drift</")
+    else:
+        assert "Template drift alarm" not in html and "at most 1.10 px" in html
+
+
 def test_kinematics_without_omega0_says_why(tmp_path):
     from pendtrack.artifacts import Provenance, read_artifact, write_artifact
 

@@ -108,6 +108,36 @@ def test_weighted_centroid():
     assert weighted_centroid(np.zeros((9, 9), np.float32), 4, 4, 3, 0, 0.5) is None
 
 
+def test_fill_holes_fills_a_sticker_and_keeps_the_outline():
+    from pendtrack.track.match import fill_holes
+
+    ball = disc(41, 41, 20.3, 19.6, 9.0) * 40 + 5
+    sticker = ball - 60 * disc(41, 41, 23.0, 17.0, 2.7)  # 0.3 radii, off centre: a dip below the wall
+    filled = fill_holes(sticker.astype(np.float32), 0.8 * 9.0)
+    # the dip is lifted to the ball's level (within the anti-aliased rim's 1/16 steps)
+    assert np.abs(filled - ball)[disc(41, 41, 20.3, 19.6, 7.0) > 0].max() < 3.0
+    # a plain ball passes unchanged (a convex blob)
+    assert np.abs(fill_holes(ball.astype(np.float32), 7.2) - ball).max() < 1e-4
+    below = sticker.astype(np.float32)
+    assert fill_holes(below, 0.4) is below  # below 1 px: as is
+    # with a level (half the ball's contrast over the wall), a dip on the wall stays as it is
+    pit = sticker - 30 * disc(41, 41, 4.0, 4.0, 2.0)
+    gated = fill_holes(pit.astype(np.float32), 7.2, level=5 + 20)
+    assert np.abs(gated - ball)[disc(41, 41, 20.3, 19.6, 7.0) > 0].max() < 3.0
+    np.testing.assert_array_equal(gated[:9, :9], pit.astype(np.float32)[:9, :9])
+
+
+def test_filled_window_does_not_depend_on_where_the_window_ends():
+    from pendtrack.track.tracker import filled_window
+
+    rng = np.random.default_rng(3)
+    fr = yuv_frame(scene(120, 160, 80.0, 60.0, r=9.0, rng=rng))
+    sampler = RawSampler(parse_marker_colour("pink"), width=160, height=120)
+    big = filled_window(sampler, fr.y, fr.u, fr.v, 50, 30, 60, 60, 7.2, 40.0)
+    small = filled_window(sampler, fr.y, fr.u, fr.v, 65, 45, 30, 30, 7.2, 40.0)
+    np.testing.assert_array_equal(small, big[15:45, 15:45])
+
+
 # --- detection -----------------------------------------------------------------------------
 
 def test_find_marker_by_colour_and_not_when_absent():

@@ -79,6 +79,32 @@ def lens_statement(run: RunData) -> tuple[str, Note | None]:
     return text + (f" ({reason})" if reason else ""), None
 
 
+def drift_statement(run: RunData) -> tuple[str | None, Note | None]:
+    """The tracker's template-drift alarm (track.parquet's ``template_drift``): one line, and an
+    error note when the alarm fired (an evolving template drifted beyond ``max_drift_px`` from the
+    first one and was re-anchored: positions may be biased by up to that drift). (None, None) when
+    the track records no drift (no track.parquet, or one made before the alarm existed)."""
+    drift = run.extra("track").get("template_drift")
+    if not isinstance(drift, dict):
+        return None, None
+    max_px, limit = D.find_number(drift, "max_px"), D.find_number(drift, "limit_px")
+    reanchors = int(drift.get("reanchors") or 0)
+    rate = D.find_number(run.stage_config("track"), "evolution_rate")
+    if not drift.get("alarm"):
+        if rate == 0:
+            return "none: the template does not evolve (evolution_rate 0)", None
+        text = "within the limit"
+        if max_px is not None and limit is not None:
+            text += f": at most {max_px:.2f} px from the first template (limit {limit:g} px)"
+        return text, None
+    text = (f"ALARM: up to {max_px:.2f} px from the first template (limit {limit:g} px), re-anchored "
+            f"{reanchors} time{'s' if reanchors != 1 else ''}") if max_px is not None and limit is not None else "ALARM"
+    return text, Note(f"Template drift alarm: the evolving template drifted up to {max_px or float('nan'):.2f} px "
+                      f"from the first one (limit {limit or float('nan'):g} px) and was shifted back {reanchors} "
+                      "time(s). Positions between re-anchorings may be biased by up to that drift; track again with "
+                      "a lower [track] evolution_rate (0, as in the paper, keeps the first template).", kind="error")
+
+
 def fit_notes(run: RunData) -> list[Note]:
     """One note per fit that is not trustworthy: not converged, parameters flagged (fit.json
     ``flags``), or stopped by the time budget (``stopped``, starts run of planned)."""
@@ -120,7 +146,10 @@ def zero_offsets(run: RunData) -> str:
 
 def _overview(run: RunData) -> Section:
     lens_text, lens_note = lens_statement(run)
+    drift_text, drift_note = drift_statement(run)
     facts: list[tuple[str, str]] = [("run", run.name), ("lens", lens_text), ("folder", str(run.run_dir))]
+    if drift_text is not None:
+        facts.append(("template drift", drift_text))
     track = run.get("track")
     if track is not None and len(track):
         t = track["t"].to_numpy(float)
@@ -147,6 +176,8 @@ def _overview(run: RunData) -> Section:
     blocks: list[Any] = [Facts(tuple(facts))]
     if lens_note is not None:
         blocks.insert(0, lens_note)
+    if drift_note is not None:
+        blocks.insert(0, drift_note)
     blocks.extend(fit_notes(run))
     for p in run.problems:
         blocks.append(Note(f"Could not read: {p}", kind="error"))

@@ -49,7 +49,8 @@ def track_params(config: Config) -> TrackParams:
                            quick_margin_px=tc.quick_margin_px, evolution_rate=tc.evolution_rate,
                            refine=tc.refine, max_coast_frames=tc.max_coast_frames,
                            min_contrast_ratio=tc.min_contrast_ratio, acquire_step_s=tc.acquire_step_s,
-                           acquire_window_s=tc.acquire_window_s, max_drift_px=tc.max_drift_px)
+                           acquire_window_s=tc.acquire_window_s, max_drift_px=tc.max_drift_px,
+                           hole_share=tc.hole_share)
     except ValueError as exc:
         raise config_error("track", exc) from None
 

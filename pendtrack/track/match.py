@@ -133,3 +133,70 @@ def weighted_centroid(window: np.ndarray, x: float, y: float, radius: float, bac
     if total <= 0:
         return None
     return float((wgt * xx).sum() / total), float((wgt * yy).sum() / total)
+
+
+
+
+def fill_reach(radius_px: float) -> int:
+    """Reach [px] of the octagon :func:`fill_holes` closes with (its inradius, ``radius_px`` rounded);
+    0 below one pixel. A feature window must extend this far beyond the pixels whose filled values
+    are used (the closing looks that far around each)."""
+    return int(round(radius_px)) if radius_px >= 1.0 else 0
+
+
+def _octagon_passes(k: int) -> tuple[np.ndarray | None, int]:
+    """A near-regular octagon of inradius ``k`` as a square (half side ``k - b``) dilated ``b`` times by a
+    3x3 cross, b = k / (1 + 1/sqrt(2)): OpenCV dilates by a square in separable passes and by the
+    cross in one cheap pass each: measured 2.2 ms against 14 ms for a disc kernel at k = 32 on a
+    166 px window (a 1080p ball)."""
+    b = max(1, int(round(k / (1.0 + 1.0 / np.sqrt(2.0)))))
+    a = k - b
+    square = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * a + 1, 2 * a + 1)) if a > 0 else None
+    return square, b
+
+
+def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = None) -> np.ndarray:
+    """The feature with the dips inside a marker filled: a grey closing with a flat octagon.
+
+    A sticker of another colour on a ball turns with it; matched against a template cut
+    with the sticker elsewhere it pulls the match off the ball's centre (by up to a few
+    tenths of a px, mostly across the swing: several mrad of theta). The closing (a
+    dilation, then an erosion, by a flat octagon of inradius ``radius_px``) lifts every dip
+    narrower than the octagon to the level around it -- in the template and in each search window alike --
+    and leaves a round marker's outline as it is: a convex blob, or a profile that falls
+    off with the distance from its centre, passes unchanged. Dips wider than the octagon
+    and everything outside the marker keep their shape, less the gaps narrower than the
+    octagon between bright neighbours. With ``level``, only the pixels the closing lifts to
+    at least ``level`` change (those surrounded by the marker, when ``level`` is half its
+    contrast over the background): the wall's noise and the dark rim compression leaves
+    around a marker stay as they are.
+
+    Parameters
+    ----------
+    feature : ndarray, float32
+        Feature window (see :mod:`pendtrack.track.colour`).
+    radius_px : float
+        Inradius of the octagon [px], rounded to whole px; below 1 px the feature is returned as is.
+    level : float, optional
+        Only pixels whose closed value reaches this feature level are filled.
+
+    Returns
+    -------
+    ndarray, float32
+        Same shape.
+    """
+    k = fill_reach(radius_px)
+    if k < 1:
+        return feature
+    # an octagon, not a disc, for speed (see _octagon_passes); nearly round, so the filling does not
+    # depend on how the sticker has turned (a square's did: theta 1.89 instead of 1.44 mrad RMS)
+    square, b = _octagon_passes(k)
+    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+    closed = feature if square is None else cv2.dilate(feature, square, borderType=cv2.BORDER_REPLICATE)
+    closed = cv2.dilate(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)
+    closed = cv2.erode(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)
+    if square is not None:
+        closed = cv2.erode(closed, square, borderType=cv2.BORDER_REPLICATE)
+    if level is None:
+        return closed
+    return np.where(closed >= np.float32(level), closed, feature)
