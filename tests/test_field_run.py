@@ -23,17 +23,15 @@ from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_f
 DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_60fps")
 MODELS = ("classic", "opa", "fractional")
 
-# (condition, what) -> why it fails today, with the figure measured on 2026-11-23 (what: "tracking"
-# or a model). Every other (condition, what) met its target then; figures in the session's report.
-KNOWN: dict[tuple[str, str], str] = {
-}
+# (condition, what) -> why it fails today, with the figure measured (what: "tracking" or a model).
+# Every other (condition, what) met its target when last measured; figures in the session's report.
 _ON_BAR = {
     "dark_ball_on_bar": "acquisition (measured 2026-11-24): 'marker lost in 530 of 719 frames' (exit 2). The ball is "
                         "no dark candidate in most frames (its blob merges with the dark grey bar: not compact), so "
                         "the moving candidate acquired is a piece of the bar 50 px from the axle (path 'unclear'; the "
                         "ball's few detections were passed over as no arc), whose template the turning bar then loses",
 }
-KNOWN |= {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
+KNOWN: dict[tuple[str, str], str] = {(c, what): why for c, why in _ON_BAR.items() for what in ("tracking", "classic", "opa", "fractional")}
 
 
 def _marks(condition: str, what: str) -> list:
