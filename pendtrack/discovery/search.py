@@ -8,16 +8,19 @@
 
 from __future__ import annotations
 
+import itertools
+import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from pendtrack.config import Config
 from pendtrack.discovery import catalogue as C
 from pendtrack.discovery.data import AnalysisData, prepare
-from pendtrack.discovery.diagnostics import Diagnosis, diagnose
+from pendtrack.discovery.diagnostics import Diagnosis, diagnose, off_diagnostics
 from pendtrack.discovery.inputs import AngleSeries
-from pendtrack.discovery.starts import scaled_starts
+from pendtrack.discovery.starts import combination_starts, measurement_starts, scaled_starts
 from pendtrack.discovery.result import Candidate, DiscoveryResult, Step
 from pendtrack.discovery.selection import (
     FitPair, FitTask, choose, fit_full, fit_pair, fit_train, judge, judge_heldout, make_executor, passes_heldout,
@@ -37,10 +40,83 @@ def diagnose_pair(pair: FitPair, data: AnalysisData, config: Config) -> Diagnosi
                     near_fraction=dc.near_turning_fraction)
 
 
+@dataclass(frozen=True, eq=False)
+class _Context:
+    """What every step of one discovery shares."""
+
+    data: AnalysisData
+    baseline: str
+    config: Config
+    executor: Any
+    tick: Callable[[int], None]
+
+    def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
+                 starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
+                 seed: int) -> tuple[list[Candidate], list[FitPair]]:
+        """Fit ``baseline + kept + option`` for every option and judge it against ``current``.
+
+        Every option is fitted on the training part and predicts the held-out part; only one
+        that passes the held-out test earns a whole-record fit (for BIC).
+        """
+        dc = self.config.discover
+        data = self.data
+        warm = warm_start(current)
+        common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
+        tasks = [FitTask(data, self.baseline, (*kept, *opt), warm, dc.n_starts, seed, extra_starts=tuple(st), **common)
+                 for opt, st in zip(options, starts)]
+        pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
+        again = [i for i, p in enumerate(pairs)
+                 if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
+                                   min_gain=dc.heldout_min_gain, heldout_rms=current.heldout_rms)]
+        refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=self.executor)
+        for i, p in zip(again, refits):
+            pairs[i] = p
+        judged = [judge(p, current, data, effect="+".join(opt), terms=tuple(opt), kind=kind, step=step, score=s,
+                        delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min,
+                        min_gain=dc.heldout_min_gain)
+                  for p, opt, s in zip(pairs, options, scores)]
+        return judged, pairs
+
+
+def _step(best: Candidate, current: FitPair, pair: FitPair) -> Step:
+    assert current.full is not None and pair.full is not None
+    return Step(effect=best.effect, before=current.full, after=pair.full, heldout_rms_before=current.heldout_rms,
+                heldout_rms_after=pair.heldout_rms, heldout_z=best.heldout_z, delta_bic=best.delta_bic,
+                terms=best.names, kind=best.kind, step=best.step)
+
+
+def _combinations(singles: Sequence[Candidate], single_pairs: Sequence[FitPair], size: int,
+                  pool_size: int) -> list[tuple[str, ...]]:
+    """Combinations of ``size`` effects among the ``pool_size`` singles with the best held-out gain.
+
+    A single that could not be fitted does not enter. The order is that of the gains, so the
+    most promising combination is fitted first.
+    """
+    usable = [(c, p) for c, p in zip(singles, single_pairs) if p.train is not None and not c.error]
+    usable.sort(key=lambda cp: -(cp[0].heldout_gain if math.isfinite(cp[0].heldout_gain) else -1e9))
+    names = [c.effect for c, _ in usable[:pool_size]]
+    return [tuple(combo) for combo in itertools.combinations(names, size)]
+
+
 def discover(series: AngleSeries, *, config: Config, baseline: str | None = None,
-             effects: Sequence[str] | None = None,
+             effects: Sequence[str] | None = None, measurement: Sequence[str] | None = None,
              on_progress: Callable[[int], None] | None = None) -> DiscoveryResult:
     """Find what the baseline gets wrong, name the cause, extend the model, measure the gain.
+
+    1. Fit the baseline and diagnose it.
+    2. **Measurement** (``[discover] measurement``): forward selection over the measurement
+       terms (theta's zero offset, an angle-scale error), by the held-out and BIC rules of
+       :mod:`~pendtrack.discovery.selection`. A kept term enters the observation, stays in
+       every later model and is reported as a measurement finding, never as a cause.
+    3. **Effects**: forward selection over the catalogue, one effect per step. When no single
+       effect earns its keep but the current model's residual still has structure
+       (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`), combinations of
+       ``max_combination`` effects among the ``combination_pool`` singles with the best
+       held-out gain are fitted and judged by the same rules (pairs first, then triples):
+       two effects that each alone cannot show their worth may do so together. Singles are
+       judged before pairs, so among nested alternatives the simplest that clears the rules
+       is kept.
+    4. **What stays unexplained**: the final model's diagnostics still off.
 
     Parameters
     ----------
@@ -52,8 +128,10 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
         Baseline model; default ``config.discover.baseline``.
     effects : sequence of str, optional
         Restrict the catalogue; default ``config.discover.effects`` (empty: all).
+    measurement : sequence of str, optional
+        Measurement terms to try; default ``config.discover.measurement`` (empty: none).
     on_progress : callable, optional
-        Called with 1 after each fit pair (baseline, then every candidate).
+        Called with 1 after each candidate's training fit (and the baseline).
 
     Returns
     -------
@@ -62,7 +140,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     Raises
     ------
     ConfigError
-        Unknown baseline or effect.
+        Unknown baseline, effect or measurement term.
     FitError
         The record cannot support the analysis, or the baseline cannot be fitted.
     """
@@ -70,10 +148,12 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     dc = config.discover
     baseline = baseline or dc.baseline
     effects = tuple(dc.effects if effects is None else effects)
+    measurement = tuple(dc.measurement if measurement is None else measurement)
     from pendtrack.errors import ModelError
 
     try:
         pool = C.candidates(baseline, effects)
+        meas_pool = C.measurement_candidates(baseline, measurement)
     except ModelError as exc:
         from pendtrack.errors import ConfigError
 
@@ -89,74 +169,117 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     if base.error or base.full is None:
         raise FitError(f"baseline model '{baseline}' could not be fitted: {base.error}", path=series.source)
     diag_base = diagnose_pair(base, data, config)
-    timing = {"baseline_s": time.perf_counter() - t_wall, "steps_s": []}
+    timing: dict[str, Any] = {"baseline_s": time.perf_counter() - t_wall, "measurement_s": 0.0, "steps_s": []}
     diag_current = diag_base
     rankings: list[list[dict[str, Any]]] = []
-    current, accepted = base, []
+    current = base
+    accepted: list[str] = []
+    meas_kept: list[str] = []
     steps: list[Step] = []
+    meas_steps: list[Step] = []
     judged_all: list[Candidate] = []
-    executor = make_executor(worker_count(workers, len(pool)))
+    diag_measured: Diagnosis | None = None
+    executor = make_executor(worker_count(workers, max(len(pool), len(meas_pool), 1)))
+    ctx = _Context(data, baseline, config, executor, tick)
     try:
-        for step in range(1, dc.max_effects + 1):
-            remaining = [e for e in pool if e.name not in accepted]
-            if not remaining:
+        # 1. the measurement: what the record's angle is, before what the pendulum does
+        t_meas = time.perf_counter()
+        for mstep in range(1, len(meas_pool) + 1):
+            remaining_m = [a for a in meas_pool if a.name not in meas_kept]
+            if not remaining_m:
                 break
-            t_step = time.perf_counter()
-            ranked = C.rank(remaining, diag_current.evidence)
-            rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
-                             for e, s in ranked])
-            warm = warm_start(current)
-            tasks = [FitTask(data, baseline, (*accepted, e.name), warm, dc.n_starts, dc.seed + step,
-                             extra_starts=tuple(scaled_starts(baseline, accepted, e.name, warm, data,
-                                                              memory_s=config.models.memory_s)), **common)
-                     for e, _ in ranked]
-            pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=tick, executor=executor)
-            # only a candidate that predicts the held-out part better earns a whole-record fit (for BIC)
-            again = [i for i, p in enumerate(pairs)
-                     if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
-                                       min_gain=dc.heldout_min_gain, heldout_rms=current.heldout_rms)]
-            refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=executor)
-            for i, p in zip(again, refits):
-                pairs[i] = p
-            judged = [judge(p, current, data, effect=e.name, step=step, score=s, delta_bic_max=dc.delta_bic_max,
-                            heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
-                      for p, (e, s) in zip(pairs, ranked)]
+            starts = [measurement_starts(a.name, warm_start(current), data, current.prediction) for a in remaining_m]
+            judged, pairs = ctx.evaluate(current, meas_kept, [(a.name,) for a in remaining_m], starts,
+                                         [0.0] * len(remaining_m), step=mstep, kind="measurement",
+                                         seed=dc.seed + 100 + mstep)
             judged_all.extend(judged)
-            timing["steps_s"].append(time.perf_counter() - t_step)
             best = choose(judged)
             if best is None:
                 break
             pair = pairs[judged.index(best)]
-            steps.append(Step(effect=best.effect, before=current.full, after=pair.full,
-                              heldout_rms_before=current.heldout_rms, heldout_rms_after=pair.heldout_rms,
-                              heldout_z=best.heldout_z, delta_bic=best.delta_bic))
-            accepted.append(best.effect)
+            meas_steps.append(_step(best, current, pair))
+            meas_kept.extend(best.names)
+            current = pair
+            diag_current = diagnose_pair(current, data, config)
+            diag_measured = diag_current
+        timing["measurement_s"] = time.perf_counter() - t_meas
+
+        # 2. the physics, the measurement terms kept in every model
+        step = 0
+        while len(accepted) < dc.max_effects:
+            remaining = [e for e in pool if e.name not in accepted]
+            if not remaining:
+                break
+            step += 1
+            t_step = time.perf_counter()
+            kept = (*meas_kept, *accepted)
+            ranked = C.rank(remaining, diag_current.evidence)
+            rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
+                             for e, s in ranked])
+            warm = warm_start(current)
+            scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
+                      for e, _ in ranked}
+            judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
+                                         [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
+                                         step=step, kind="effect", seed=dc.seed + step)
+            judged_all.extend(judged)
+            best = choose(judged)
+            chosen_pairs, chosen_judged = pairs, judged
+            # effects in combination: none alone earns its keep, yet the residual has structure
+            size = 2
+            while (best is None and size <= dc.max_combination and size <= len(remaining)
+                   and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
+                combos = _combinations(judged, pairs, size, dc.combination_pool)
+                if not combos:
+                    break
+                singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
+                starts = [combination_starts(combo, singles, scaled) for combo in combos]
+                scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
+                chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
+                                                           kind="effect", seed=dc.seed + 10 * step + size)
+                judged_all.extend(chosen_judged)
+                best = choose(chosen_judged)
+                size += 1
+            timing["steps_s"].append(time.perf_counter() - t_step)
+            if best is None:
+                break
+            pair = chosen_pairs[chosen_judged.index(best)]
+            steps.append(_step(best, current, pair))
+            accepted.extend(best.names)
             current = pair
             diag_current = diagnose_pair(current, data, config)
     finally:
         if executor is not None:
             executor.shutdown()
 
-    diagnosis = _diagnosis_record(baseline, pool, diag_base, diag_current if steps else None, rankings, accepted)
+    diag_final = diag_current if (steps or meas_steps) else None
+    unexplained = tuple(off_diagnostics(diag_current.evidence))
+    diagnosis = _diagnosis_record(baseline, pool, diag_base, diag_final, rankings, accepted,
+                                  measured=diag_measured, meas_pool=meas_pool)
     thresholds = {"delta_bic_max": dc.delta_bic_max, "heldout_z_min": dc.heldout_z_min,
                   "heldout_min_gain": dc.heldout_min_gain,
-                  "train_fraction": dc.train_fraction}
+                  "train_fraction": dc.train_fraction, "max_combination": dc.max_combination,
+                  "combination_pool": dc.combination_pool}
     return DiscoveryResult(baseline=baseline, effects=tuple(accepted), steps=tuple(steps),
                            candidates=tuple(judged_all), baseline_fit=base.full,
                            baseline_heldout_rms=base.heldout_rms, final_fit=current.full,
                            final_heldout_rms=current.heldout_rms, diagnosis=diagnosis, thresholds=thresholds,
                            data={**series.to_dict(), "analysis": data.to_dict(), "timing": timing},
-                           runtime_s=time.perf_counter() - t_wall)
+                           runtime_s=time.perf_counter() - t_wall, measurement=tuple(meas_kept),
+                           measurement_steps=tuple(meas_steps), unexplained=unexplained)
 
 
 def _diagnosis_record(baseline: str, pool: Sequence[C.Effect], diag_base: Diagnosis, diag_final: Diagnosis | None,
-                      rankings: list[list[dict[str, Any]]], accepted: list[str]) -> dict[str, Any]:
+                      rankings: list[list[dict[str, Any]]], accepted: list[str], *,
+                      measured: Diagnosis | None = None, meas_pool: Sequence[C.Artefact] = ()) -> dict[str, Any]:
     first = rankings[0] if rankings else []
     top = first[0]["effect"] if first else None
     cause = accepted[0] if accepted else None
     return {
         "baseline": diag_base.to_dict(),
         "final": diag_final.to_dict() if diag_final is not None else None,
+        "measured": measured.to_dict() if measured is not None else None,
+        "measurement_catalogue": {a.name: a.to_dict() for a in meas_pool},
         "evidence": dict(diag_base.evidence),
         "ranking": first,
         "rankings_by_step": rankings,
