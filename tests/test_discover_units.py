@@ -274,3 +274,29 @@ def test_off_diagnostics_uses_each_limit():
     assert off_diagnostics({**quiet, "harmonic_line": 15.0, "excess_rms": 0.1, "offset": 2.9}) == []
     assert off_diagnostics({**quiet, "harmonic_line": 25.0, "excess_rms": 0.3, "offset": 3.1}) == [
         "excess_rms", "harmonic_line", "offset"]
+
+
+@pytest.mark.parametrize("rate_hz", [30.0, 120.0])
+def test_low_rate_records_keep_the_filter_and_memory_durations(rate_hz):
+    from pendtrack.config import Config
+    from pendtrack.discovery.data import prepare
+    from pendtrack.discovery.inputs import AngleSeries
+    from pendtrack.models import compose
+
+    cfg = Config()
+    t = np.arange(int(40 * rate_hz)) / rate_hz
+    series = AngleSeries(t, 0.5 * np.cos(5.5 * t), source="x", kind="table")  # type: ignore[arg-type]
+    d = prepare(series, analysis_rate_hz=cfg.discover.analysis_rate_hz, train_fraction=0.6,
+                savgol_window_s=cfg.kinematics.savgol_window_s, savgol_order=cfg.kinematics.savgol_order)
+    assert d.decimation == (2 if rate_hz == 120.0 else 1)  # 30 fps is analysed as recorded
+    # the filter is a duration: within one (odd-rounded) window step of savgol_window_s at either rate
+    assert abs(d.savgol_window * d.dt - cfg.kinematics.savgol_window_s) <= d.dt
+    assert d.savgol_window >= cfg.kinematics.savgol_order + 2
+    # the memory is a duration too: the Grunwald-Letnikov sum reaches back memory_s at either rate
+    # (within half a step), so a 30 fps record's memory term is the same physics as a 120 Hz one's
+    from pendtrack.models import compose, simulate
+
+    p = {"Omega0": 5.5, "C1": 0.02, "C0": 0.01, "C2": 0.004, "G2": 0.008, "beta": 0.5, "p_f": 1.5}
+    sim = simulate(compose("standard", ["memory"]), p, d.t[:200], theta0=2.0, omega0=0.0,
+                   memory_s=cfg.models.memory_s)
+    assert abs(sim.memory_steps * d.dt - cfg.models.memory_s) <= 0.5 * d.dt
