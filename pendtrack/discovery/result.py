@@ -116,6 +116,8 @@ class Candidate:
         The terms the candidate adds (several for a combination; default ``(effect,)``).
     kind : str
         ``"measurement"`` (a term of the observation) or ``"effect"`` (physics).
+    note : str
+        Why a term kept earlier was dropped (the final check), else "".
     """
 
     effect: str
@@ -132,6 +134,7 @@ class Candidate:
     error: str = ""
     terms: tuple[str, ...] = ()
     kind: str = "effect"
+    note: str = ""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -145,6 +148,8 @@ class Candidate:
 
     def reason(self) -> str:
         """One line: why it was (not) kept."""
+        if self.note:
+            return self.note
         if self.error:
             return f"could not be fitted: {self.error}"
         if not math.isfinite(self.delta_bic):
@@ -165,7 +170,8 @@ class Candidate:
                 "rms": _num(self.full.rms) if self.full else None, "xi2": _num(self.full.xi2) if self.full else None,
                 "heldout_rms": _num(self.heldout_rms), "heldout_gain": _num(self.heldout_gain),
                 "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic), "passes_bic": self.passes_bic,
-                "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep, "reason": self.reason(),
+                "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep and not self.note,
+                "reason": self.reason(),
                 "error": self.error}
 
 

@@ -12,7 +12,7 @@ import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from pendtrack.config import Config
@@ -78,6 +78,36 @@ class _Context:
         return judged, pairs
 
 
+def _without(warm: dict[str, float], term: str) -> dict[str, float]:
+    """A warm start less one term's parameters."""
+    from pendtrack.models import CATALOGUE
+
+    drop = set(CATALOGUE[term].params)
+    return {k: v for k, v in warm.items() if k not in drop}
+
+
+def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *,
+             step: int) -> tuple[Candidate, FitPair]:
+    """Does ``term`` still earn its keep in the model ``baseline + terms``?
+
+    The model without it is fitted (training part, then the whole record, warm-started from the
+    current fit less the term's parameters) and the current model is judged against it as if
+    the term were being added now, by the same held-out and BIC rules.
+    """
+    dc = ctx.config.discover
+    reduced_terms = tuple(t for t in terms if t != term)
+    task = FitTask(ctx.data, ctx.baseline, reduced_terms, _without(warm_start(current), term), dc.n_starts,
+                   dc.seed + 200 + step, cost=ctx.config.fit.cost, memory_s=ctx.config.models.memory_s)
+    reduced = fit_pair(task)
+    ctx.tick(1)
+    if reduced.error or reduced.full is None:  # the simpler model cannot be fitted: the term stays
+        return Candidate(term, step, 0.0, current.train, current.full, current.heldout_rms, math.inf, math.inf,
+                         -math.inf, True, True, terms=(term,), kind="measurement"), reduced
+    cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind="measurement", step=step, score=0.0,
+                 delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
+    return cand, reduced
+
+
 def _step(best: Candidate, current: FitPair, pair: FitPair) -> Step:
     assert current.full is not None and pair.full is not None
     return Step(effect=best.effect, before=current.full, after=pair.full, heldout_rms_before=current.heldout_rms,
@@ -116,7 +146,10 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
        two effects that each alone cannot show their worth may do so together. Singles are
        judged before pairs, so among nested alternatives the simplest that clears the rules
        is kept.
-    4. **What stays unexplained**: the final model's diagnostics still off.
+    4. **The simplest model**: every measurement term kept before later terms is judged again
+       in the final model (the model without it against the model with it, same rules) and
+       dropped if it no longer earns its keep.
+    5. **What stays unexplained**: the final model's diagnostics still off.
 
     Parameters
     ----------
@@ -248,6 +281,24 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
             accepted.extend(best.names)
             current = pair
             diag_current = diagnose_pair(current, data, config)
+        # 3. the simplest model: a measurement term kept before the later terms must still earn its keep
+        # in the final model (one kept against a poor fit -- a baseline that slipped a phase, say -- may
+        # have absorbed what a later term explains); one that does not is dropped, by the same rules
+        for term in list(reversed(meas_kept)):
+            later = meas_kept[meas_kept.index(term) + 1:] + accepted
+            if not later:
+                continue
+            cand, reduced = _recheck(ctx, current, (*meas_kept, *accepted), term, step=len(meas_steps) + 1)
+            if cand.earns_keep:
+                continue
+            judged_all.append(replace(cand, step=0, note="kept first, dropped at the end: in the final model it no "
+                                      "longer earns its keep (" + cand.reason() + ")"))
+            meas_kept.remove(term)
+            meas_steps = [s for s in meas_steps if term not in s.names]
+            current = reduced
+            diag_current = diagnose_pair(current, data, config)
+            if not meas_kept:
+                diag_measured = None
     finally:
         if executor is not None:
             executor.shutdown()

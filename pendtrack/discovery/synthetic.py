@@ -30,6 +30,7 @@ RATE_HZ = 120.0
 OFFSET_MRAD = (5.0, 15.0)  # |theta_off| of an offset run [mrad]: a vertical misjudged by 0.3-0.9 degrees
 SCALE_ERROR = (0.05, 0.15)  # |k_scale| (2.5 rad)^2 of an angle-scale run: theta wrong by 5-15 % at 2.5 rad
 SCALE_AT = 2.5  # [rad]
+SCALE_RELEASE = 2.6  # largest release of an angle-scale run [rad]
 SIZE_CHECKED = ("memory", "time_varying_damping")  # effects redrawn until a standard fit cannot absorb them
 
 
@@ -190,6 +191,10 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
     theta0 = rng.uniform(2.6, 3.0)
     sd = rng.uniform(*noise)
     artefact = _draw_artefact(rng, measurement)
+    if "k_scale" in artefact:
+        # a camera measures angles within (-pi, pi]: released from SCALE_RELEASE at most, a swing stretched
+        # by 15 % at 2.5 rad stays below 3.03 rad
+        theta0 = min(theta0, SCALE_RELEASE)
     for draw in range(1, max_draws + 1):
         params = {**_draw_params(rng, effects), **artefact}
         # a pair's noise has its own seed, so that each effect alone can be simulated with the same noise;
