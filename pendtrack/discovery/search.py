@@ -86,7 +86,7 @@ def _without(warm: dict[str, float], term: str) -> dict[str, float]:
     return {k: v for k, v in warm.items() if k not in drop}
 
 
-def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *,
+def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *, kind: str,
              step: int) -> tuple[Candidate, FitPair]:
     """Does ``term`` still earn its keep in the model ``baseline + terms``?
 
@@ -102,8 +102,8 @@ def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *
     ctx.tick(1)
     if reduced.error or reduced.full is None:  # the simpler model cannot be fitted: the term stays
         return Candidate(term, step, 0.0, current.train, current.full, current.heldout_rms, math.inf, math.inf,
-                         -math.inf, True, True, terms=(term,), kind="measurement"), reduced
-    cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind="measurement", step=step, score=0.0,
+                         -math.inf, True, True, terms=(term,), kind=kind), reduced
+    cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind=kind, step=step, score=0.0,
                  delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
     return cand, reduced
 
@@ -134,11 +134,14 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     """Find what the baseline gets wrong, name the cause, extend the model, measure the gain.
 
     1. Fit the baseline and diagnose it.
-    2. **Measurement** (``[discover] measurement``): forward selection over the measurement
-       terms (theta's zero offset, an angle-scale error), by the held-out and BIC rules of
-       :mod:`~pendtrack.discovery.selection`. A kept term enters the observation, stays in
-       every later model and is reported as a measurement finding, never as a cause.
-    3. **Effects**: forward selection over the catalogue, one effect per step. When no single
+    2. **Measurement** (``[discover] measurement``): at every round the measurement terms
+       (theta's zero offset, an angle-scale error) not yet kept are tried first, by the
+       held-out and BIC rules of :mod:`~pendtrack.discovery.selection`. A kept term enters the
+       observation, stays in every later model and is reported as a measurement finding, never
+       as a cause. (Tried again after each effect: on a record whose baseline dephases, the
+       held-out error is the dephasing's and hides an offset until the physics is better.)
+    3. **Effects**: when no measurement term earns its keep, forward selection over the
+       catalogue, one effect per round. When no single
        effect earns its keep but the current model's residual still has structure
        (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`), combinations of
        ``max_combination`` effects among the ``combination_pool`` singles with the best
@@ -146,9 +149,10 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
        two effects that each alone cannot show their worth may do so together. Singles are
        judged before pairs, so among nested alternatives the simplest that clears the rules
        is kept.
-    4. **The simplest model**: every measurement term kept before later terms is judged again
-       in the final model (the model without it against the model with it, same rules) and
-       dropped if it no longer earns its keep.
+    4. **The simplest model**: every term kept before a term of the other kind (a measurement
+       term before an effect, an effect before a measurement term) is judged again in the
+       final model (the model without it against the model with it, same rules) and dropped if
+       it no longer earns its keep.
     5. **What stays unexplained**: the final model's diagnostics still off.
 
     Parameters
@@ -212,93 +216,119 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     meas_steps: list[Step] = []
     judged_all: list[Candidate] = []
     diag_measured: Diagnosis | None = None
+    order: list[str] = []  # every term kept, in the order it was kept
     executor = make_executor(worker_count(workers, max(len(pool), len(meas_pool), 1)))
     ctx = _Context(data, baseline, config, executor, tick)
     try:
-        # 1. the measurement: what the record's angle is, before what the pendulum does
-        t_meas = time.perf_counter()
-        for mstep in range(1, len(meas_pool) + 1):
-            remaining_m = [a for a in meas_pool if a.name not in meas_kept]
-            if not remaining_m:
-                break
-            starts = [measurement_starts(a.name, warm_start(current), data, current.prediction) for a in remaining_m]
-            judged, pairs = ctx.evaluate(current, meas_kept, [(a.name,) for a in remaining_m], starts,
-                                         [0.0] * len(remaining_m), step=mstep, kind="measurement",
-                                         seed=dc.seed + 100 + mstep)
-            judged_all.extend(judged)
-            best = choose(judged)
-            if best is None:
-                break
-            pair = pairs[judged.index(best)]
-            meas_steps.append(_step(best, current, pair))
-            meas_kept.extend(best.names)
-            current = pair
-            diag_current = diagnose_pair(current, data, config)
-            diag_measured = diag_current
-        timing["measurement_s"] = time.perf_counter() - t_meas
+        step = mstep = 0
+        banned: set[str] = set()  # terms dropped by the final check: not tried again
+        confirmed: dict[str, tuple[str, ...]] = {}  # term -> the model (its terms) the final check kept it in
+        while True:
+            while True:
+                # 1. the measurement first, at every round: what the record's angle is, before what the
+                # pendulum does (a term the baseline's own errors hid may show once the physics is better)
+                t_meas = time.perf_counter()
+                remaining_m = [a for a in meas_pool if a.name not in meas_kept and a.name not in banned]
+                best = None
+                if remaining_m:
+                    mstep += 1
+                    starts = [measurement_starts(a.name, warm_start(current), data, current.prediction)
+                              for a in remaining_m]
+                    judged, pairs = ctx.evaluate(current, (*meas_kept, *accepted), [(a.name,) for a in remaining_m],
+                                                 starts, [0.0] * len(remaining_m), step=mstep, kind="measurement",
+                                                 seed=dc.seed + 100 + mstep)
+                    judged_all.extend(judged)
+                    best = choose(judged)
+                    if best is not None:
+                        pair = pairs[judged.index(best)]
+                        meas_steps.append(_step(best, current, pair))
+                        meas_kept.extend(best.names)
+                        order.extend(best.names)
+                        current = pair
+                        diag_current = diagnose_pair(current, data, config)
+                        if not accepted:
+                            diag_measured = diag_current
+                timing["measurement_s"] += time.perf_counter() - t_meas
+                if best is not None:
+                    continue
 
-        # 2. the physics, the measurement terms kept in every model
-        step = 0
-        while len(accepted) < dc.max_effects:
-            remaining = [e for e in pool if e.name not in accepted]
-            if not remaining:
-                break
-            step += 1
-            t_step = time.perf_counter()
-            kept = (*meas_kept, *accepted)
-            ranked = C.rank(remaining, diag_current.evidence)
-            rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
-                             for e, s in ranked])
-            warm = warm_start(current)
-            scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
-                      for e, _ in ranked}
-            judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
-                                         [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
-                                         step=step, kind="effect", seed=dc.seed + step)
-            judged_all.extend(judged)
-            best = choose(judged)
-            chosen_pairs, chosen_judged = pairs, judged
-            # effects in combination: none alone earns its keep, yet the residual has structure
-            size = 2
-            while (best is None and size <= dc.max_combination and size <= len(remaining)
-                   and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
-                combos = _combinations(judged, pairs, size, dc.combination_pool)
-                if not combos:
+                # 2. the physics, the measurement terms kept in every model
+                remaining = [e for e in pool if e.name not in accepted and e.name not in banned]
+                if not remaining or len(accepted) >= dc.max_effects:
                     break
-                singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
-                starts = [combination_starts(combo, singles, scaled) for combo in combos]
-                scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
-                chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
-                                                           kind="effect", seed=dc.seed + 10 * step + size)
-                judged_all.extend(chosen_judged)
-                best = choose(chosen_judged)
-                size += 1
-            timing["steps_s"].append(time.perf_counter() - t_step)
-            if best is None:
+                step += 1
+                t_step = time.perf_counter()
+                kept = (*meas_kept, *accepted)
+                ranked = C.rank(remaining, diag_current.evidence)
+                rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
+                                 for e, s in ranked])
+                warm = warm_start(current)
+                scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
+                          for e, _ in ranked}
+                judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
+                                             [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
+                                             step=step, kind="effect", seed=dc.seed + step)
+                judged_all.extend(judged)
+                best = choose(judged)
+                chosen_pairs, chosen_judged = pairs, judged
+                # effects in combination: none alone earns its keep, yet the residual has structure
+                size = 2
+                while (best is None and size <= dc.max_combination and size <= len(remaining)
+                       and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
+                    combos = _combinations(judged, pairs, size, dc.combination_pool)
+                    if not combos:
+                        break
+                    singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
+                    starts = [combination_starts(combo, singles, scaled) for combo in combos]
+                    scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
+                    chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
+                                                               kind="effect", seed=dc.seed + 10 * step + size)
+                    judged_all.extend(chosen_judged)
+                    best = choose(chosen_judged)
+                    size += 1
+                timing["steps_s"].append(time.perf_counter() - t_step)
+                if best is None:
+                    break
+                pair = chosen_pairs[chosen_judged.index(best)]
+                steps.append(_step(best, current, pair))
+                accepted.extend(best.names)
+                order.extend(best.names)
+                current = pair
+                diag_current = diagnose_pair(current, data, config)
+
+            # 3. the simplest model: a term kept before a term of the other kind must still earn its keep
+            # in the final model -- a measurement term kept against a poor fit (a baseline that slipped a
+            # phase) may have absorbed what an effect explains, an effect kept while theta's zero was
+            # wrong may have bent to absorb the offset. One that does not is dropped, by the same rules.
+            dropped = []
+            for term in [t for i, t in enumerate(order)
+                         if any((u in meas_kept) != (t in meas_kept) for u in order[i + 1:])][::-1]:
+                kind = "measurement" if term in meas_kept else "effect"
+                model_terms = tuple(sorted(order))
+                if confirmed.get(term) == model_terms:  # already judged in this very model
+                    continue
+                cand, reduced = _recheck(ctx, current, (*meas_kept, *accepted), term, kind=kind,
+                                         step=(len(meas_steps) if kind == "measurement" else len(steps)) + 1)
+                if cand.earns_keep:
+                    confirmed[term] = model_terms
+                    continue
+                judged_all.append(replace(cand, step=0, note="kept first, dropped at the end: in the final model "
+                                          "it no longer earns its keep (" + cand.reason() + ")"))
+                if kind == "measurement":
+                    meas_kept.remove(term)
+                    meas_steps = [s for s in meas_steps if term not in s.names]
+                else:
+                    accepted.remove(term)
+                    steps = [s for s in steps if term not in s.names]
+                order.remove(term)
+                current = reduced
+                diag_current = diagnose_pair(current, data, config)
+                dropped.append(term)
+            if not dropped:
                 break
-            pair = chosen_pairs[chosen_judged.index(best)]
-            steps.append(_step(best, current, pair))
-            accepted.extend(best.names)
-            current = pair
-            diag_current = diagnose_pair(current, data, config)
-        # 3. the simplest model: a measurement term kept before the later terms must still earn its keep
-        # in the final model (one kept against a poor fit -- a baseline that slipped a phase, say -- may
-        # have absorbed what a later term explains); one that does not is dropped, by the same rules
-        for term in list(reversed(meas_kept)):
-            later = meas_kept[meas_kept.index(term) + 1:] + accepted
-            if not later:
-                continue
-            cand, reduced = _recheck(ctx, current, (*meas_kept, *accepted), term, step=len(meas_steps) + 1)
-            if cand.earns_keep:
-                continue
-            judged_all.append(replace(cand, step=0, note="kept first, dropped at the end: in the final model it no "
-                                      "longer earns its keep (" + cand.reason() + ")"))
-            meas_kept.remove(term)
-            meas_steps = [s for s in meas_steps if term not in s.names]
-            current = reduced
-            diag_current = diagnose_pair(current, data, config)
-            if not meas_kept:
-                diag_measured = None
+            banned.update(dropped)  # the search goes on without them (each round bans one more: it ends)
+        if not meas_kept:
+            diag_measured = None
     finally:
         if executor is not None:
             executor.shutdown()
