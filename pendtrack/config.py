@@ -28,6 +28,7 @@ VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg
 # radial projections of pendtrack.lens.fisheye (a lens's input; "none" and "rectilinear" do not bend rays)
 LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
+FIT_OFFSETS = ("auto", "always", "never")  # [fit] offset: fit theta's zero (theta_off) when not measured, always, never
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
 RENDER_MARKER_COLOURS = ("pink", "dark", "blue")  # named looks of the rendered bob (or #RRGGBB)
@@ -89,6 +90,11 @@ class KinematicsConfig:
 class ModelsConfig:
     memory_s: float = MEMORY_S  # Grünwald–Letnikov memory: paper's 100 frames at 120 fps [s]
     full_history: bool = False  # True: the GL sum runs over the whole record
+    # the predictor-corrector's largest step [s]: the paper's 1/120 s. A record sampled more coarsely
+    # is integrated with sub-steps (memory kept as a duration), outputs at its samples: at the
+    # sample step of 30 fps (Omega0 h ~ 0.17) the second-order scheme's phase error biased Omega0
+    # by ~1e-3
+    max_step_s: float = 1.0 / PAPER_FPS
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -110,6 +116,10 @@ class FitConfig:
     # about 2 min on 2 cores, so `run` on a 60 s video stays within 3 min (one classic fit ran 740 s)
     time_budget_s: float = 40.0
     time_reserve: float = 0.5  # share of the budget kept after the search: 3/4 to refine the best start, 1/4 for its uncertainties
+    # fit theta's zero as a nuisance parameter (the measurement term "offset", theta_off) in `fit` and
+    # `run`: auto = when the zero is not a measured rest (angle.parquet's zero_reference "vertical", or a
+    # plain table), always, never
+    offset: str = "auto"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -302,8 +312,10 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "kinematics.max_gap_s": (_ge(0),),
     "kinematics.min_segment_s": (_ge(0),),
     "models.memory_s": (_gt(0),),
+    "models.max_step_s": (_gt(0),),
     "fit.models": (_NAMES,),
     "fit.cost": (_one_of(FIT_COSTS),),
+    "fit.offset": (_one_of(FIT_OFFSETS),),
     "fit.n_starts": (_ge(1),),
     "fit.accept_ratio": (_ge(1),),
     "fit.start_spread": (_ge(0),),

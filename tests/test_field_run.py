@@ -25,13 +25,9 @@ MODELS = ("classic", "opa", "fractional")
 
 # (condition, what) -> why it fails today, with the figure measured on 2026-11-23 (what: "tracking"
 # or a model). Every other (condition, what) met its target then; figures in the session's report.
-_FRACTIONAL_30FPS = ("fitting: the fractional model's Omega0 is off by {} at 30 fps (1.14e-3 on the paper's pink "
-                     "spot at 30 fps too, 2.6e-4 at 60 fps); classic and OPA are within 4e-5")
 _STICKER = ("tracking: a sticker turning with the bob biases the template match: theta {} mrad RMS with every "
             "visible frame ok (the same bob without the sticker: 0.74 mrad)")
 KNOWN: dict[tuple[str, str], str] = {
-    ("dark_string_normal_lens_30fps_axle_out", "fractional"): _FRACTIONAL_30FPS.format("1.65e-3"),
-    ("fps30", "fractional"): _FRACTIONAL_30FPS.format("1.14e-3"),
     ("blue_ball_hand_sticker_60fps", "tracking"): _STICKER.format("2.57 (mean -1.4)"),
     ("blue_ball_hand_sticker_60fps", "classic"): "from the sticker's theta error (2.57 mrad): Omega0 off by 1.5e-3",
     ("blue_ball_hand_sticker_60fps", "fractional"): "from the sticker's theta error (2.57 mrad): Omega0 off by 5.7e-3",

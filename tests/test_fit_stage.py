@@ -53,7 +53,8 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
               "memory_s", "full_history", "hac_lag", "stderr_reliable", "u_region", "stderr_naive",
               "stderr_bootstrap", "stderr_low", "stderr_high", "estimates", "fixed", "covariance", "start_costs",
               "message", "provenance",
-              "n_starts_planned", "stopped", "flags", "trustworthy"}  # issue #15: time budget and flags
+              "n_starts_planned", "stopped", "flags", "trustworthy",  # issue #15: time budget and flags
+              "measurement", "fitted_model"}  # issue #14: the model's measurement terms, the model fitted
     assert set(data) == set(FIT_JSON_KEYS) | extras
     assert data["model"] == "standard" and data["converged"] is True and data["n_starts"] == 3
     assert set(data["params"]) == set(STANDARD)
@@ -124,3 +125,29 @@ def test_bad_input_is_one_line_error_exit_2(tmp_path, case, fragment):
 def test_unknown_model_is_one_line_error(kin_file, tmp_path):
     res = invoke("fit", str(kin_file), "--model", "nope", "--out", str(tmp_path))
     assert res.exit_code == 2 and res.output.startswith("error: ") and "nope" in res.output
+
+
+def test_fit_a_composed_model_by_name(kin_file, tmp_path):
+    """`--model baseline+term` (any term order) fits the composed model under its catalogue-order name."""
+    out = tmp_path / "composed"
+    res = invoke("fit", str(kin_file), "--model", "standard+memory", "--starts", "1", "--workers", "1", "-q",
+                 "--out", str(out))
+    # exit 1 is allowed: G2 of a memory-free swing may come out "not determined" (flagged)
+    assert res.exit_code in (0, 1), res.output
+    assert "standard+memory: " in res.output
+    rec = read_json_artifact(out / "fit_standard+memory.json", required=FIT_JSON_KEYS)
+    assert rec["model"] == "standard+memory"
+    assert set(rec["params"]) == set(STANDARD) | {"G2", "beta", "p_f"}
+    assert abs(rec["params"]["Omega0"]["value"] / 5.0 - 1) < 5e-4
+
+
+@pytest.mark.parametrize("name, fragment", [
+    ("standard+nope", "unknown term 'nope'"),
+    ("memory+standard", "'memory' is a term, not a model"),
+    ("standard+viscous", "already in model 'standard'"),
+])
+def test_bad_composed_model_is_one_line_error(kin_file, tmp_path, name, fragment):
+    res = invoke("fit", str(kin_file), "--model", name, "--out", str(tmp_path / "bad"))
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert res.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], res.output
+    assert not (tmp_path / "bad" / "fit.json").exists()

@@ -47,6 +47,29 @@ def test_compose_adds_terms_and_rejects_bad_ones() -> None:
         compose("standard", ["viscous"])
 
 
+def test_get_model_takes_composed_names_in_any_term_order() -> None:
+    a = get_model("standard+offset+memory")
+    b = get_model("standard+memory+offset")
+    assert a == b and a.name == "standard+memory+offset"  # catalogue order: physical terms, then measurement
+    assert a.terms == compose("standard", ["memory", "offset"]).terms
+    assert a.measurement_terms == ("offset",) and a.physics().terms == get_model("standard+memory").terms
+    assert get_model("classic+offset").param_names[-1] == "theta_off"
+    assert get_model(" classic + offset ").name == "classic+offset"
+
+
+@pytest.mark.parametrize(("name", "pattern"), [
+    ("standard+wind", r"model 'standard\+wind': unknown term 'wind' \(known models: .*standard.*; known terms: .*memory"),
+    ("wind+memory", r"'wind' is unknown model \(known models"),
+    ("memory+standard", "'memory' is a term, not a model"),
+    ("nope", r"unknown model 'nope' \(known models: .*; known terms: .*offset"),
+    ("standard+memory+memory", "lists a term twice"),
+])
+def test_bad_composed_name_names_the_unknown_part(name: str, pattern: str) -> None:
+    with pytest.raises(ModelError, match=pattern) as info:
+        get_model(name)
+    assert "\n" not in str(info.value)
+
+
 def test_unknown_model_is_a_model_error() -> None:
     with pytest.raises(ModelError, match="unknown model 'nope'.*standard"):
         get_model("nope")

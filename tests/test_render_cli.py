@@ -41,6 +41,8 @@ def test_render_name_by_run_code(tmp_path):
     (["--size", "garbage"], "--size must look like WIDTHxHEIGHT"),
     (["--seconds", "-1"], "render.seconds must be > 0"),
     (["--model", "nope"], "unknown model 'nope'"),
+    (["--model", "standard+nope"], "unknown term 'nope'"),
+    (["--model", "standard+offset"], "measurement terms (offset) cannot be rendered"),
     (["--param", "Omega0=abc"], "'Omega0' must be a number"),
     (["--param", "G2=1"], "no parameter 'G2'"),
     (["--fps", "0"], "render.fps"),
@@ -53,3 +55,15 @@ def test_render_bad_argument(tmp_path, args, fragment):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
     assert not out.exists()
+
+
+def test_render_a_composed_model(tmp_path):
+    """`--model baseline+term` in any term order: the composed model, named in catalogue order."""
+    out = tmp_path / "run"
+    result = invoke("render", "--seconds", "0.05", "--size", "160x96", "--out", str(out), "-q",
+                    "--model", "standard+memory+added_mass", "--param", "G2=0.001")
+    assert result.exit_code == 0, result.output
+    truth = read_artifact(out / "truth.parquet", "truth")
+    assert truth.provenance.extra["params"]["G2"] == 0.001
+    assert truth.provenance.extra["params"]["Ca"] == 0.01  # the default of the term's first built-in model
+    assert "model standard+added_mass+memory" in result.stdout

@@ -19,7 +19,8 @@ def _fmt(x: Any, spec: str) -> str:
 @click.argument("kinematics_file", metavar="KINEMATICS", type=click.Path(dir_okay=False))
 @table_options
 @click.option("--model", "models", multiple=True,
-              help="Model to fit (repeat for several): standard, classic, opa, fractional, inertial. "
+              help="Model to fit (repeat for several): standard, classic, opa, fractional, inertial, or a "
+                   "composed baseline+term+... (e.g. standard+memory, classic+offset). "
                    "Default: [fit] models of the config (classic, opa, fractional).")
 @click.option("--cost", type=click.Choice(["xi2", "theta"]), default=None,
               help="xi2: the paper's Xi^2 on A_theta, A_omega; theta: least squares on theta.")
@@ -36,6 +37,9 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     a Parquet file or a CSV/whitespace table of t, theta or t, x, y), differentiated first with
     the [kinematics] settings.
 
+    When theta's zero was not measured (angle.parquet's zero_reference "vertical", or a plain
+    table), every model is fitted with the offset term and theta_off is reported ([fit] offset).
+
     Exit code: 0 every fit converged and no parameter is flagged; 1 the files are written but a
     fit did not converge or has a flagged parameter (fit.json "flags"); 2 a user error.
     """
@@ -47,14 +51,28 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
                     table=table_spec(columns, pivot), force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")
-    for name, f in (res.facts.get("models") or {}).items():
-        click.echo(f"{name}: {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
-                   f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
-                   f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s, "
-                   f"BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
+    echo_fit_summary(res.facts)
     if not res.skipped:
         click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
     exit_on_fit_problems(res.facts)
+
+
+def echo_fit_summary(facts: dict[str, Any]) -> None:
+    """One line per fitted model (the fit stage's facts): verdict, Xi2_min, rms, Omega0, theta_off, BIC."""
+    for name, f in (facts.get("models") or {}).items():
+        click.echo(f"{name}: {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
+                   f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
+                   f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s, "
+                   f"{offset_text(f)}BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
+
+
+def offset_text(f: dict[str, Any]) -> str:
+    """``"theta_off = 1.23 +- 0.05 mrad (fitted as classic+offset), "`` for a fit with the offset term, else ``""``."""
+    if f.get("theta_off") is None:
+        return ""
+    se = f.get("theta_off_stderr")
+    return (f"theta_off = {1e3 * f['theta_off']:.3f} +- {'n/a' if se is None else format(1e3 * se, '.3f')} mrad "
+            f"(fitted as {f.get('fitted_model')}), ")
 
 
 def fit_state(f: dict[str, Any]) -> str:

@@ -30,7 +30,7 @@ def run(video: str, models: tuple[str, ...], roi: tuple[int, ...] | None, marker
     Exit code (as `fit`): 0 every fit converged and no parameter is flagged; 1 every file is
     written but a fit did not converge or has a flagged parameter; 2 a user error.
     """
-    from pendtrack.cli.fit_cmd import exit_on_fit_problems
+    from pendtrack.cli.fit_cmd import echo_fit_summary, exit_on_fit_problems
     from pendtrack.stages.run import run_pipeline
 
     config = with_lens_and_video(common.config, fov_deg=fov_deg, fixed_pixels=fixed_pixels, projection=projection,
@@ -43,6 +43,8 @@ def run(video: str, models: tuple[str, ...], roi: tuple[int, ...] | None, marker
     for name, stage in result.stages.items():
         state = "up to date" if stage.skipped else "done"
         click.echo(f"{name:<11} {state:<10} {', '.join(str(p) for p in stage.paths)}")
+    if "fit" in result.stages:
+        echo_fit_summary(result.stages["fit"].facts)
     click.echo(f"results in {result.out_dir}/")
     if "fit" in result.stages:  # a pipeline without the fit stage has no fit to judge
         exit_on_fit_problems(result.stages["fit"].facts)

@@ -71,6 +71,13 @@ class DataSummary:
         Angle [rad] and angular velocity [rad/s] at the first usable sample.
     n : int
         Usable samples.
+    theta_center : float
+        Centre of the oscillation [rad]: the median over consecutive turning-point triples of
+        ``(theta_i + 2 theta_{i+1} + theta_{i+2})/4`` (a decay linear in the swing count cancels);
+        the data-derived zero of theta (the start of a fitted ``theta_off``).
+    theta_center_se : float
+        Its standard error [rad] (scaled MAD of the triples over sqrt of their number; NaN
+        with fewer than 3 triples).
     """
 
     omega0_hat: float
@@ -80,6 +87,8 @@ class DataSummary:
     theta_init: float
     omega_init: float
     n: int
+    theta_center: float = 0.0
+    theta_center_se: float = math.nan
 
     def first_window_end(self, t_start: float, half_swings: int = 6) -> float:
         """End of the first window of the ladder: ``half_swings`` turning points after ``t_start`` [s]."""
@@ -90,12 +99,33 @@ class DataSummary:
 
 
 def _dedupe(times: np.ndarray, min_gap: float) -> np.ndarray:
-    """Drop crossings closer than ``min_gap`` to the previous kept one (noise near a turning point)."""
-    kept: list[float] = []
-    for x in times:
-        if not kept or x - kept[-1] >= min_gap:
-            kept.append(float(x))
-    return np.asarray(kept)
+    """Indices of the crossings kept: those not closer than ``min_gap`` to the previous kept one
+    (noise near a turning point)."""
+    kept: list[int] = []
+    for i, x in enumerate(times):
+        if not kept or x - times[kept[-1]] >= min_gap:
+            kept.append(i)
+    return np.asarray(kept, dtype=np.int64)
+
+
+def oscillation_center(turn_theta: np.ndarray) -> tuple[float, float]:
+    """Centre [rad] of an oscillation from its successive turning angles, and its standard error [rad].
+
+    Each triple of consecutive turning points (max, min, max or min, max, min) gives
+    ``(theta_i + 2 theta_{i+1} + theta_{i+2})/4``: the mean of the two midpoints, in which an
+    amplitude decay linear over the three (Coulomb friction exactly, any slow damping nearly)
+    cancels. The median over the triples is robust to a spurious turning point; its standard
+    error is ``1.4826 MAD / sqrt(m)`` (NaN for fewer than 3 triples). With fewer than 3 turning
+    points: the midpoint of the extremes, NaN error.
+    """
+    th = np.asarray(turn_theta, dtype=float)
+    th = th[np.isfinite(th)]
+    if th.size < 3:
+        return (0.5 * float(np.max(th) + np.min(th)) if th.size else 0.0), math.nan
+    c = 0.25 * (th[:-2] + 2.0 * th[1:-1] + th[2:])
+    center = float(np.median(c))
+    se = 1.4826 * float(np.median(np.abs(c - center))) / math.sqrt(c.size) if c.size >= 3 else math.nan
+    return center, se
 
 
 def summarize(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.ndarray, *,
@@ -138,12 +168,15 @@ def summarize(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: np.nda
     w0 = float(est.omega0)
     if not (math.isfinite(w0) and w0 > 0):
         raise FitError("cannot estimate Omega0 from the turning points", path=source)
-    turns = _dedupe(tp.t, 0.1 * math.pi / w0)
+    kept = _dedupe(tp.t, 0.1 * math.pi / w0)
+    turns = np.asarray(tp.t, dtype=float)[kept]
+    center, center_se = oscillation_center(np.asarray(tp.theta, dtype=float)[kept])
     if turns.size < MIN_HALF_SWINGS:
         raise FitError(f"no oscillation to fit ({turns.size} distinct turning points, need at least {MIN_HALF_SWINGS})",
                        path=source)
     return DataSummary(omega0_hat=w0, omega0_source="kinematics", turning_times=turns, amplitude=amplitude,
-                       theta_init=float(theta[0]), omega_init=float(omega[0]), n=n)
+                       theta_init=float(theta[0]), omega_init=float(omega[0]), n=n, theta_center=center,
+                       theta_center_se=center_se)
 
 
 @dataclass(frozen=True)
@@ -225,6 +258,11 @@ def equation_error_estimates(model: Any, t: np.ndarray, theta: np.ndarray, omega
     Estimates
     """
     use = np.ones(t.size, bool) if use is None else np.asarray(use, bool)
+    if getattr(model, "measurement_terms", ()):
+        # the physics on the model's angle: the data's less the oscillation's centre (theta_off's
+        # estimate); a scale error's k_scale starts at 0 (no correction of the angle)
+        return _with_measurement(model, t, theta, omega, omega0_hat=omega0_hat, memory_s=memory_s,
+                                 full_history=full_history, use=use, lag_s=lag_s)
     names = tuple(model.param_names)
     if t.size < 3 or not t[-1] > t[0]:
         raise FitError(f"record too short for the initial estimates of model '{model.name}'")
@@ -294,6 +332,28 @@ def equation_error_estimates(model: Any, t: np.ndarray, theta: np.ndarray, omega
             lo[j] = max(lo[j], SHAPE_LIMITS[name][0])
             hi[j] = min(hi[j], SHAPE_LIMITS[name][1])
     return _polish(names, best[1], resid_fn, (lo, hi))
+
+
+def _with_measurement(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *, omega0_hat: float,
+                      memory_s: float, full_history: bool, use: np.ndarray, lag_s: float | None) -> Estimates:
+    """:func:`equation_error_estimates` of a model with measurement terms (its physics on theta - theta_off)."""
+    from pendtrack.kinematics import turning_points
+
+    ok = use & np.isfinite(theta) & np.isfinite(omega)
+    tp = turning_points(t, theta, omega, ok=ok)
+    kept = _dedupe(np.asarray(tp.t, dtype=float), 0.1 * math.pi / omega0_hat) if len(tp) else np.zeros(0, np.int64)
+    center, center_se = oscillation_center(np.asarray(tp.theta, dtype=float)[kept])
+    values: dict[str, float] = {}
+    scales: dict[str, float] = {}
+    if "theta_off" in model.param_names:
+        values["theta_off"], scales["theta_off"] = center, center_se
+    else:
+        center = 0.0
+    if "k_scale" in model.param_names:
+        values["k_scale"], scales["k_scale"] = 0.0, math.nan
+    est = equation_error_estimates(model.physics(), t, theta - center, omega, omega0_hat=omega0_hat,
+                                   memory_s=memory_s, full_history=full_history, use=use, lag_s=lag_s)
+    return Estimates(values={**est.values, **values}, scales={**est.scales, **scales}, rms=est.rms)
 
 
 def _gap_free_spans(use: np.ndarray, h: float, span: float, *, min_span: float,

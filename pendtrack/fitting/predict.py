@@ -46,7 +46,8 @@ def _problem(result: FitResult, model: Any, t_start: float, h: float, n_grid: in
     return FitProblem(model=model, t_start=t_start, h=h, n_grid=n_grid, index=index, theta=theta, omega=omega,
                       cost=cost, omega_scale=1.0 / (2.0 * result.omega0_hat), observation=observation,
                       memory_s=result.memory_s, method="auto", lower=np.zeros(0), upper=np.zeros(0),
-                      fixed={n: values[n] for n in names}, simulator=simulator, full_history=result.full_history)
+                      fixed={n: values[n] for n in names}, simulator=simulator, full_history=result.full_history,
+                      max_step_s=result.max_step_s)
 
 
 def predict(result: FitResult, model: Any, t: np.ndarray, *, h: float | None = None,

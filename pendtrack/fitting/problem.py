@@ -2,8 +2,9 @@
 
 The fitted vector is the model's parameters (in ``model.param_names`` order) followed by the
 initial state ``theta0`` [rad] and ``omega0`` [rad/s] at the start of the fit window. The
-model is simulated on a uniform grid starting at the window's first sample, observed the way
-the data were (:class:`~pendtrack.fitting.cost.Observation`) and compared at the data samples.
+model is simulated on a uniform grid starting at the window's first sample, mapped through its
+measurement terms (e.g. ``theta_obs = theta + theta_off``), observed the way the data were
+(:class:`~pendtrack.fitting.cost.Observation`) and compared at the data samples.
 
 A :class:`FitProblem` holds only plain arrays, scalars and the model object, so it pickles
 cheaply into worker processes.
@@ -30,17 +31,24 @@ Simulator = Callable[..., Any]
 
 
 def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, t_start: float, theta0: float,
-                     omega0: float, memory_s: float, full_history: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The models package's unchecked hot path (no SimResult, no time-axis checks)."""
-    from pendtrack.models.simulate import memory_steps_for, simulate_packed
+                     omega0: float, memory_s: float, full_history: bool,
+                     max_step_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The models package's unchecked hot path (no SimResult, no time-axis checks).
+
+    A model with memory runs the predictor-corrector with ``pc_substeps(h, max_step_s)``
+    internal sub-steps (none at 120 fps) and its memory as the duration ``memory_s``.
+    """
+    from pendtrack.models.simulate import memory_steps_for, pc_substeps, simulate_packed
 
     coeffs = model.pack(params)  # validates the physical ranges (ModelError)
-    mem = memory_steps_for(memory_s, h, full_history=full_history) if model.has_memory else -1
+    k = pc_substeps(h, max_step_s) if model.has_memory else 0
+    mem = memory_steps_for(memory_s, h / k, full_history=full_history) if model.has_memory else -1
     theta = np.empty(n)
     omega = np.empty(n)
     alpha = np.empty(n)
     with np.errstate(all="ignore"):
-        simulate_packed(coeffs, n - 1, h, float(theta0), float(omega0), mem, theta, omega, alpha, t_start=t_start)
+        simulate_packed(coeffs, n - 1, h, float(theta0), float(omega0), mem, theta, omega, alpha, t_start=t_start,
+                        substeps=k)
     return theta, omega
 
 
@@ -106,6 +114,9 @@ class FitProblem:
     typical : ndarray or None
         Typical magnitude of each fitted parameter (sets finite-difference steps); None: from
         the point itself with floors (1 rad for theta0, Omega0_hat for omega0).
+    max_step_s : float or None
+        Largest predictor-corrector step of a model with memory [s] (``[models] max_step_s``;
+        None: its default, the paper's 1/120 s): a coarser grid is sub-stepped.
     """
 
     model: Any
@@ -126,6 +137,7 @@ class FitProblem:
     simulator: Simulator | None = None
     full_history: bool = False
     typical: np.ndarray | None = None
+    max_step_s: float | None = None
 
     # ---- names -------------------------------------------------------------------------
     @property
@@ -167,6 +179,11 @@ class FitProblem:
     def simulate(self, x: np.ndarray, *, n_grid: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Simulate the model on the grid (optionally a longer one) and observe it.
 
+        The model's angle goes through its measurement terms first (``Model.observe_state``:
+        ``theta_obs = f(theta)``, ``omega_obs = f'(theta) omega``), then through the data's
+        filter (:class:`~pendtrack.fitting.cost.Observation`): the camera measures the observed
+        angle, and the pipeline filters what it measured.
+
         Returns
         -------
         theta, omega : ndarray
@@ -178,7 +195,7 @@ class FitProblem:
         params = {k: v for k, v in p.items() if k not in STATE_NAMES}
         if self.simulator is None:
             theta, omega = _simulate_packed(self.model, params, n, self.h, self.t_start, p["theta0"], p["omega0"],
-                                            self.memory_s, self.full_history)
+                                            self.memory_s, self.full_history, self.max_step_s)
         else:
             t = self.t_start + self.h * np.arange(n)
             res = self.simulator(self.model, params, t, theta0=p["theta0"], omega0=p["omega0"],
@@ -187,6 +204,8 @@ class FitProblem:
             omega = np.asarray(res.omega, dtype=float)
         if theta.shape != (n,) or not (np.all(np.isfinite(theta)) and np.all(np.isfinite(omega))):
             raise FloatingPointError("simulation did not return finite values on the grid")
+        if getattr(self.model, "measurement_terms", ()):  # the camera measures theta_obs; the pipeline then filters it
+            theta, omega = self.model.observe_state(theta, omega, params)
         return self.observation.apply(theta, omega, self.h)
 
     def model_at_data(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -138,7 +138,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                   window: tuple[float, float] | None = None, cost: str = "xi2", omega0_hat: float,
                   observation: Observation | None = None, memory_s: float = MEMORY_S,
                   full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
-                  source: str = "the data") -> FitProblem:
+                  source: str = "the data", max_step_s: float | None = None) -> FitProblem:
     """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
 
     Parameters
@@ -151,6 +151,8 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
         Fixes the A_omega scale of Xi^2 [rad/s].
     memory_s : float
         Grunwald-Letnikov memory [s]; ``full_history``: the sum over the whole record.
+    max_step_s : float, optional
+        Largest predictor-corrector step [s] (``[models] max_step_s``; None: its default).
     simulator, method
         As in :func:`pendtrack.fitting.fit_model`.
     """
@@ -172,7 +174,8 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
     return FitProblem(model=model, t_start=float(tu[0]), h=h, n_grid=n_grid, index=index[keep],
                       theta=theta[mask][keep], omega=omega[mask][keep], cost=cost,
                       omega_scale=1.0 / (2.0 * omega0_hat), observation=obs, memory_s=float(memory_s),
-                      method=method, lower=lower, upper=upper, simulator=simulator, full_history=full_history)
+                      method=method, lower=lower, upper=upper, simulator=simulator, full_history=full_history,
+                      max_step_s=max_step_s)
 
 
 def uniform_series(problem: FitProblem, t: np.ndarray, series: list[np.ndarray],

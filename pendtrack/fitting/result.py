@@ -9,7 +9,9 @@ plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u
 ``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
 ``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
 ``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``estimates``, ``covariance``,
-``start_costs``, ``message``, ``n_starts_planned``, ``stopped``, ``flags``, ``trustworthy``.
+``start_costs``, ``message``, ``n_starts_planned``, ``stopped``, ``flags``, ``trustworthy``,
+``measurement`` (the model's measurement terms, e.g. ``["offset"]``; their parameters, e.g.
+``theta_off``, are in ``params`` like any other).
 Non-finite numbers are written as ``null``.
 
 Budget and flags
@@ -72,7 +74,7 @@ UNDETERMINED_RATIO = 2.0
 
 def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray, lower: np.ndarray,
                        upper: np.ndarray, *, t_start: float, t_end: float,
-                       floors: Mapping[str, float]) -> dict[str, str]:
+                       floors: Mapping[str, float], nuisance: tuple[str, ...] = ()) -> dict[str, str]:
     """Why a fitted model parameter's value cannot be taken as a measurement, by name.
 
     Rules (constants above, the physics reason next to each):
@@ -88,7 +90,10 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
       of ``t_start - t0``).
 
     The initial state (``theta0``, ``omega0``) is not judged: a release from rest has
-    ``omega0`` ~ 0 with any relative error.
+    ``omega0`` ~ 0 with any relative error. Nor is a measurement parameter (``nuisance``, e.g.
+    ``theta_off``) judged by its relative error: it corrects the observation, and a value
+    consistent with 0 (``theta_off = 0.2 +- 0.5 mrad``: the camera's zero was right) is a
+    result, not a failure; it is flagged only for a non-finite standard error.
 
     Parameters
     ----------
@@ -100,6 +105,8 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
         The fitted window [s].
     floors : mapping
         Name -> visibility floor of the value [its unit] (missing: 0).
+    nuisance : tuple of str
+        Measurement parameters (judged only for a finite standard error and the bounds).
     """
     flags: dict[str, str] = {}
     duration = max(t_end - t_start, 0.0)
@@ -123,6 +130,8 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
             scale = abs(v)
         if not math.isfinite(se):
             flags[name] = "not determined by the data (no finite standard error)"
+        elif name in nuisance:
+            continue
         elif scale > floors.get(name, 0.0) and se > UNDETERMINED_RATIO * scale:
             flags[name] = (f"not determined by the data: standard error {se:.3g} > "
                            f"{'its distance before the record' if name == 't0' else '|value|'} {scale:.3g}")
@@ -242,6 +251,12 @@ class FitResult:
         ``""``, or ``"time budget"`` if ``[fit] time_budget_s`` cut a step short (module docstring).
     flags : mapping
         Parameter name -> why its value is not a measurement (:func:`plausibility_flags`).
+    measurement : tuple of str
+        The model's measurement terms (e.g. ``("offset",)``: ``params`` has ``theta_off``).
+    max_step_s : float or None
+        The predictor-corrector's largest step used [s] (``[models] max_step_s``; None: its
+        default); :func:`~pendtrack.fitting.predict` simulates with it. Not in ``to_dict``: the
+        stage records ``[models]`` in the provenance.
     """
 
     model: str
@@ -272,6 +287,8 @@ class FitResult:
     n_starts_planned: int = 0
     stopped: str = ""
     flags: Mapping[str, str] = field(default_factory=dict)
+    measurement: tuple[str, ...] = ()
+    max_step_s: float | None = None
 
     # ---- access --------------------------------------------------------------------------
     @property
@@ -349,6 +366,7 @@ class FitResult:
             "stopped": self.stopped or None,
             "flags": dict(self.flags),
             "trustworthy": self.trustworthy,
+            "measurement": list(self.measurement),
         }
 
 
@@ -435,5 +453,15 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         stopped=found.stopped or (TIME_BUDGET if best.timed_out or unc.cut_short else ""),
         flags=plausibility_flags(names, x, unc.stderr, problem.lower, problem.upper, t_start=problem.t_start,
                                  t_end=float(problem.t[-1]),
-                                 floors={n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names}),
+                                 floors={n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names},
+                                 nuisance=_measurement_params(model)),
+        measurement=tuple(getattr(model, "measurement_terms", ())),
+        max_step_s=getattr(model_options, "max_step_s", None),
     )
+
+
+def _measurement_params(model: Any) -> tuple[str, ...]:
+    """The parameters of a model's measurement terms."""
+    from pendtrack.models.terms import CATALOGUE
+
+    return tuple(p for t in getattr(model, "measurement_terms", ()) for p in CATALOGUE[t].params)

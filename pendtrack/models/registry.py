@@ -34,6 +34,13 @@ from pendtrack.models.rhs import accel_packed
 from pendtrack.models.terms import BASE, CATALOGUE, LAYOUT, PARAMS
 
 
+#: Half-step of the central difference that gives the observation's slope d theta_obs/d theta [rad]:
+#: exact for an affine observation (offset) up to rounding (~1e-16 |theta|/1e-4 = 1e-12 relative),
+#: and off by k_scale * 1e-8 for the cubic angle scale (its third derivative is 6 k_scale): both far
+#: below a tracked angle's noise (~1e-3 relative).
+OBSERVE_FD_STEP = 1e-4
+
+
 @dataclass(frozen=True)
 class Model:
     """A model: ``alpha + Omega0^2 sin(theta) = sum of terms``.
@@ -66,10 +73,22 @@ class Model:
         """The terms of the equation of motion."""
         return tuple(t for t in self.terms if CATALOGUE[t].is_physical)
 
-    @property
+    @cached_property  # asked for on every model evaluation of a fit
     def measurement_terms(self) -> tuple[str, ...]:
         """The terms of the observation (``theta_obs = f(theta, params)``), applied in this order."""
         return tuple(t for t in self.terms if CATALOGUE[t].kind == "measurement")
+
+    def physics(self) -> "Model":
+        """The model without its measurement terms (the equation of motion alone)."""
+        if not self.measurement_terms:
+            return self
+        return Model(name=self.physics_name, terms=self.physical_terms, description=self.description)
+
+    @property
+    def physics_name(self) -> str:
+        """The name without the measurement terms' parts (``standard+offset`` -> ``standard``)."""
+        parts = [p for p in self.name.split("+") if p not in self.measurement_terms]
+        return "+".join(parts) if parts else self.name
 
     @property
     def bounds(self) -> dict[str, tuple[float, float]]:
@@ -161,8 +180,39 @@ class Model:
         numpy.ndarray
             float64, the shape of ``theta`` [rad].
         """
+        return self._observe(np.asarray(theta, dtype=np.float64), self.validate(params))
+
+    def observe_state(self, theta: np.ndarray, omega: np.ndarray,
+                      params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The observed angle and angular velocity of the model's ``(theta, omega)``.
+
+        ``theta_obs = f(theta)`` as in :meth:`observe`, and ``omega_obs = d theta_obs/dt =
+        f'(theta) omega``, with ``f'`` a central difference of the composed observation over
+        +-:data:`OBSERVE_FD_STEP`: derived from the declarations (no term declares a
+        derivative). The identity (the same arrays) when the model has no measurement term.
+
+        Parameters
+        ----------
+        theta, omega : numpy.ndarray
+            The model's angle [rad] and angular velocity [rad/s].
+        params : mapping
+            The model's parameters (measurement parameters included).
+
+        Returns
+        -------
+        theta_obs, omega_obs : numpy.ndarray
+            [rad], [rad/s].
+        """
+        if not self.measurement_terms:
+            return theta, omega
         p = self.validate(params)
-        out = np.asarray(theta, dtype=np.float64)
+        theta = np.asarray(theta, dtype=np.float64)
+        d = OBSERVE_FD_STEP
+        slope = (self._observe(theta + d, p) - self._observe(theta - d, p)) / (2.0 * d)
+        return self._observe(theta, p), slope * np.asarray(omega, dtype=np.float64)
+
+    def _observe(self, theta: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+        out = theta
         for name in self.measurement_terms:
             term = CATALOGUE[name]
             out = term.fn(out, tuple(p[n] for n in term.params))
@@ -220,19 +270,37 @@ def list_models() -> tuple[str, ...]:
 
 
 def get_model(name: str) -> Model:
-    """The built-in model called ``name``.
+    """The model called ``name``: a built-in one, or a composed ``baseline+term+term``.
+
+    A composed name is a built-in baseline and catalogue terms (physical or measurement), in
+    any order (``standard+offset+memory``); the model is :func:`compose` of them, named in
+    catalogue order (``standard+memory+offset``), so one model has one name.
 
     Raises
     ------
     ModelError
-        If there is no such model.
+        An unknown baseline or term (the message names it and lists the known models and
+        terms), a term twice or already in the baseline.
     """
     if isinstance(name, Model):
         return name
-    if name not in _BUILTIN:
-        raise ModelError(f"unknown model '{name}' (known models: {', '.join(_BUILTIN)})")
-    term_names, description = _BUILTIN[name]
-    return _make(name, term_names, description)
+    if name in _BUILTIN:
+        term_names, description = _BUILTIN[name]
+        return _make(name, term_names, description)
+    parts = [p.strip() for p in str(name).split("+")]
+    known = f"known models: {', '.join(_BUILTIN)}; known terms: {', '.join(CATALOGUE)}"
+    if len(parts) == 1:
+        raise ModelError(f"unknown model '{name}' ({known}; or compose them: baseline+term+...)")
+    baseline, extra = parts[0], parts[1:]
+    if baseline not in _BUILTIN:
+        what = "a term, not a model: put a model first" if baseline in CATALOGUE else "unknown model"
+        raise ModelError(f"model '{name}': '{baseline}' is {what} ({known})")
+    for part in extra:
+        if part not in CATALOGUE:
+            raise ModelError(f"model '{name}': unknown term '{part}' ({known})")
+    order = list(CATALOGUE)
+    extra = sorted(extra, key=order.index)
+    return compose(baseline, extra, name="+".join((baseline, *extra)))
 
 
 def compose(baseline: str | Model, extra_terms: Iterable[str], *, name: str | None = None) -> Model:

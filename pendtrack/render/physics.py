@@ -65,7 +65,8 @@ def resolve_params(model_name: str, given: Mapping[str, float], *, tile_length_m
     """The model and its full, validated parameter set.
 
     ``model_name`` is a registered model or a composed one, ``"<baseline>+<term>+..."``
-    (:func:`pendtrack.models.compose`, e.g. ``"standard+memory"``).
+    (:func:`pendtrack.models.get_model`, e.g. ``"standard+memory"``); measurement terms
+    (``offset``, ``angle_scale``) are refused: they describe the camera, not the pendulum.
 
     ``Omega0`` defaults to the apparatus' ``two_cuboid_omega0(l1, x, l0, g)`` (``l1 = 0``
     without a tile); other parameters to :data:`DEFAULT_PARAMS`; ``given`` wins.
@@ -78,13 +79,19 @@ def resolve_params(model_name: str, given: Mapping[str, float], *, tile_length_m
     Raises
     ------
     ModelError
-        Unknown model, unknown parameter, a missing one (model without defaults) or a
-        value out of its physical range.
+        Unknown model, a measurement term, unknown parameter, a missing one (model without
+        defaults) or a value out of its physical range.
     """
-    from pendtrack.models import compose, get_model
+    from pendtrack.models import get_model
 
-    base_name, *extra = [part.strip() for part in str(model_name).split("+")]
-    model = compose(base_name, extra) if extra else get_model(base_name)
+    model = get_model(str(model_name))  # a built-in or composed name, normalised to catalogue order
+    base_name = model.name.split("+")[0]
+    if model.measurement_terms:
+        # a measurement term describes the camera's reading of the angle, not the pendulum: the
+        # renderer draws the pendulum, and its tracked angle carries whatever the camera does
+        raise ModelError(f"model '{model.name}': measurement terms ({', '.join(model.measurement_terms)}) cannot be "
+                         f"rendered: they describe how a camera reads the angle, not the pendulum; render "
+                         f"'{model.physics_name}' and fit with the measurement term")
     params = {"Omega0": float(two_cuboid_omega0(tile_length_m, x=x, l0=l0_m, g=gravity))}
     # a composed model ("standard+memory"): its baseline's defaults, then each added term's
     # parameters from the first built-in model that has them (G2, beta, p_f from fractional, ...)

@@ -101,6 +101,23 @@ def fit_notes(run: RunData) -> list[Note]:
     return notes
 
 
+def zero_offsets(run: RunData) -> str:
+    """The fitted zero of theta per model, ``"classic: 1.234 ± 0.056 mrad; ..."`` ("" if no fit has ``theta_off``)."""
+    parts = []
+    for name, fit in run.fits.items():
+        entry = ((fit or {}).get("params") or {}).get("theta_off") if isinstance(fit, dict) else None
+        value = D.finite_number(entry)
+        if value is None:
+            continue
+        se = D.finite_number((entry or {}).get("stderr")) if isinstance(entry, dict) else None
+        parts.append(f"{name}: {1e3 * value:.3f}" + (f" ± {1e3 * se:.3f}" if se is not None else "") + " mrad")
+    if not parts:
+        return ""
+    zero = (run.extra("kinematics") or {}).get("zero_reference")
+    why = f" (zero reference: {zero})" if isinstance(zero, str) and zero else ""
+    return "; ".join(parts) + why
+
+
 def _overview(run: RunData) -> Section:
     lens_text, lens_note = lens_statement(run)
     facts: list[tuple[str, str]] = [("run", run.name), ("lens", lens_text), ("folder", str(run.run_dir))]
@@ -117,6 +134,9 @@ def _overview(run: RunData) -> Section:
         facts.append(("Ω0 (model-free)", f"{w0.value:.4f}{err} rad/s"))
     if run.fits:
         facts.append(("fitted models", ", ".join(run.fits)))
+        offsets = zero_offsets(run)
+        if offsets:
+            facts.append(("θ's zero (fitted θ_off)", offsets))
         selected = (run.combined or {}).get("selected")
         if selected:
             facts.append(("selected model", f"{selected} ({(run.combined or {}).get('selected_by', 'lowest BIC')})"))

@@ -159,6 +159,11 @@ def parameters_section(run: RunData) -> Section:
             wtext = f" Fitted window {float(window[0]):.2f}–{float(window[1]):.2f} s."
         message = str(fit.get("message") or "").strip().rstrip(".")
         msg = f" Optimiser's last message: “{escape(message)}”." if message else ""
+        fitted = fit.get("fitted_model")
+        if fitted and fitted != name:
+            msg = (f" Fitted as <b>{escape(str(fitted))}</b>" + (": θ's zero was not measured, so it is fitted as "
+                   "θ<sub>off</sub> (θ<sub>obs</sub> = θ + θ<sub>off</sub>)." if "theta_off" in (fit.get("params") or {})
+                   else ".") + msg)
         blocks.append(Table(("parameter", "unit", "value", "stderr", "u_paper", "u_r", "meaning"), tuple(rows),
                             caption=f"<b>{escape(str(name))}</b> model ({'converged' if fit.get('converged') else 'NOT converged'})."
                                     f"{wtext}{msg}",

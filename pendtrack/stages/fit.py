@@ -17,6 +17,13 @@ Files
     ``t, theta, theta_model, omega_model, residual, model``: every model's simulated curves
     (from the fitted initial state) against the data, stacked.
 
+theta's zero: when it was not measured -- the kinematics' ``zero_reference`` (passed on from
+angle.parquet) is ``"vertical"``, or the input is a plain table -- every model is fitted with
+the measurement term ``offset`` (``[fit] offset = "auto"``; ``"always"``, ``"never"``:
+:func:`fits_offset`). The records keep the requested name in ``"model"`` (and the file name
+``fit_<model>.json``) and give the fitted model's full name in ``"fitted_model"`` (e.g.
+``"classic+offset"``); ``theta_off`` is in ``"params"`` like any parameter.
+
 A fit that did not converge is still written (``"converged": false``, with ``"message"``) so it
 can be inspected, and listed in the stage's ``facts["not_converged"]``; a fit with a flagged
 parameter (``"flags"``, :func:`pendtrack.fitting.result.plausibility_flags`) is listed in
@@ -81,6 +88,24 @@ def _observation(art: Any) -> Any:
     return Observation(savgol_window=int(w), savgol_order=int(order), smooth_theta=True)
 
 
+def fits_offset(mode: str, zero: str) -> bool:
+    """Whether `fit` and `run` add the measurement term ``offset`` (theta_off) to every model.
+
+    ``mode`` is ``[fit] offset``: ``"always"``, ``"never"``, or ``"auto"`` -- when the record's
+    zero of theta was not measured (``zero``, :func:`pendtrack.stages.kinematics.zero_reference`,
+    is ``"vertical"``: the image vertical, or ``"table"``: a plain table's own convention). A
+    measured rest (``"rest"``), the renderer's truth and an unrecorded zero (``"unknown"``) fit
+    as before.
+    """
+    from pendtrack.stages.kinematics import ZERO_NOT_MEASURED
+
+    if mode == "always":
+        return True
+    if mode == "never":
+        return False
+    return zero in ZERO_NOT_MEASURED
+
+
 def fit_problems(facts: dict[str, Any]) -> dict[str, str]:
     """Model -> why its fit is not trustworthy (not converged, or a parameter flagged), from the stage's facts.
 
@@ -139,8 +164,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     StageOutput
         ``paths``: fit.json, fit.parquet, then the per-model files. ``facts``: ``models``
         (per model: converged, trustworthy, flags, stopped, n_starts, n_starts_planned, xi2_min,
-        rms, bic, Omega0, Omega0_stderr, runtime_s, message), ``not_converged``, ``flagged``
-        (model -> flags), ``selected``, ``files``.
+        rms, bic, Omega0, Omega0_stderr, fitted_model, theta_off, theta_off_stderr (None
+        without the offset term), runtime_s, message), ``not_converged``, ``flagged`` (model ->
+        flags), ``selected``, ``files``, ``zero_reference``.
 
     Raises
     ------
@@ -153,7 +179,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     """
     from pendtrack.fitting import check_record, cross_model_relations, fit_model, predict
     from pendtrack.fitting.result import _num
-    from pendtrack.models import get_model
+    from pendtrack.models import compose, get_model
 
     kinematics = Path(kinematics)
     out_dir = Path(out_dir)
@@ -164,6 +190,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         raise FitError(f"a model is listed twice: {', '.join(names)}", path=kinematics)
     model_objs = {n: get_model(n) for n in names}  # unknown names fail before any work
     art, input_sections = kinematics_input(kinematics, config=config, table=table)
+    zero = str((art.provenance.extra or {}).get("zero_reference") or "unknown")
+    if fits_offset(config.fit.offset, zero):  # theta's zero not measured: fitted as theta_off
+        model_objs = {n: m if "offset" in m.terms else compose(m, ["offset"]) for n, m in model_objs.items()}
     inputs = inputs_for(kinematics)
     sections: dict[str, Any] = {**config.sections("fit", "models"), **input_sections, "fitted_models": list(names)}
     # the number of worker processes does not change a fit: not part of what the outputs depend on
@@ -193,7 +222,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
                                       alpha=alpha, ok=ok, observation=obs, on_progress=advance,
                                       source=str(kinematics))
 
-    records = {n: r.to_dict() for n, r in results.items()}
+    # "model" is the model asked for (file names, batch columns and the report key on it), "fitted_model"
+    # the one fitted (e.g. "classic+offset")
+    records = {n: {**r.to_dict(), "model": n, "fitted_model": r.model} for n, r in results.items()}
     converged = [n for n in names if results[n].converged]
     trusted = [n for n in converged if results[n].trustworthy]
     pool = trusted or converged
@@ -211,12 +242,16 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
                        "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
                        "Omega0": _num(r.params["Omega0"].value) if "Omega0" in r.params else None,
                        "Omega0_stderr": _num(r.params["Omega0"].stderr) if "Omega0" in r.params else None,
+                       "fitted_model": r.model,
+                       "theta_off": _num(r.params["theta_off"].value) if "theta_off" in r.params else None,
+                       "theta_off_stderr": _num(r.params["theta_off"].stderr) if "theta_off" in r.params else None,
                        "runtime_s": _num(r.runtime_s), "message": r.message} for n, r in results.items()},
         "not_converged": [n for n in names if not results[n].converged],
         "flagged": {n: dict(results[n].flags) for n in names if results[n].flags},
         "selected": selected,
         "files": dict(files),
         "observation": {"savgol_window": obs.savgol_window, "savgol_order": obs.savgol_order},
+        "zero_reference": zero,
     }
     prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=facts)
 

@@ -71,6 +71,24 @@ def read_input(path: str | Path, *, table: TableSpec | None = None, min_samples:
         raise
 
 
+#: Where a record's zero of theta comes from (:func:`zero_reference`): a measured rest or the renderer's
+#: truth (``"rest"``, ``"truth"``), the image vertical (``"vertical"``), a plain table's own convention
+#: (``"table"``), or not recorded (``"unknown"``, e.g. an artifact written by a test or an older version).
+ZERO_NOT_MEASURED = ("vertical", "table")
+
+
+def zero_reference(rec: Record) -> str:
+    """Where the zero of ``rec``'s theta comes from: an artifact's ``zero_reference`` (angle.parquet,
+    passed on by kinematics.parquet), ``"truth"`` for truth.parquet, ``"table"`` for a plain table
+    or Parquet file, ``"unknown"`` if an artifact does not say."""
+    if rec.kind == "truth":
+        return "truth"
+    if rec.kind in ("angle", "kinematics"):
+        value = ((rec.provenance.extra or {}) if rec.provenance is not None else {}).get("zero_reference")
+        return value if isinstance(value, str) and value else "unknown"
+    return "table"
+
+
 def table_sections(table: TableSpec | None) -> dict[str, Any]:
     """What a stage adds to its provenance config for ``--columns``/``--pivot`` (nothing by default)."""
     return {} if table is None or table.default else {"table": table.to_dict()}
@@ -102,7 +120,7 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     -------
     artifact : Artifact
         Columns t, theta, omega, alpha, ok (segment); provenance with the Savitzky-Golay facts
-        (``window_points``, ``order``, ``h``).
+        (``window_points``, ``order``, ``h``) and ``zero_reference`` (:func:`zero_reference`).
     sections : dict
         To add to the consumer's provenance config: ``kinematics`` (when computed here),
         ``input`` (how it was read, when it was not a kinematics artifact used as it is) and
@@ -119,7 +137,8 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     frame = pd.DataFrame({"t": kin.t, "theta": kin.theta, "omega": kin.omega, "alpha": kin.alpha, "ok": kin.ok,
                           "segment": kin.segment})
     sections |= {**config.sections("kinematics"), "input": rec.info}
-    prov = Provenance(stage="kinematics", config=config.sections("kinematics"), extra=dict(kin.info))
+    prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
+                      extra={**kin.info, "zero_reference": zero_reference(rec)})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -153,7 +172,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         and the differentiation facts ``h``, ``window_points``, ``window_s``,
         ``window_clipped``, ``n_segments``, ``n_dropped_segments``, ``n_bridged``,
         ``resampled``, ``ok_fraction``; ``input``: how the file was read (columns, pivot,
-        ``resampled`` grid, ``warnings``).
+        ``resampled`` grid, ``warnings``); ``zero_reference``: where theta's zero comes from
+        (:func:`zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured).
 
     Raises
     ------
@@ -193,6 +213,7 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         "ok_fraction": float(np.mean(kin.ok)) if kin.ok.size else 0.0,
         **kin.info,
         "input": rec.info,
+        "zero_reference": zero_reference(rec),
     }
     write_artifact(frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))

@@ -1,0 +1,122 @@
+"""theta's zero as a fitted nuisance in `fit` and `run` (issue #15): when and how it is fitted and reported.
+
+The record: the standard model, 20 s at 120 Hz from 2.5 rad, 1 mrad noise, seen by a camera
+whose zero is 10 mrad off. The zero reference is what the angle stage would have recorded
+(``"vertical"``: the image vertical; ``"rest"``: a measured final rest) or a plain table.
+"""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_json_artifact, write_artifact
+from pendtrack.cli import cli
+from pendtrack.config import Config
+from pendtrack.models import get_model, simulate
+from pendtrack.stages.fit import fit_stage, fits_offset
+from pendtrack.stages.kinematics import zero_reference
+from pendtrack.tables import read_record
+
+STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
+OFFSET = 0.01  # [rad]
+FAST = Config().replace("fit", n_starts=2, workers=1, profile=False, time_budget_s=0.0)
+
+
+def _theta() -> tuple[np.ndarray, np.ndarray]:
+    t = np.arange(20 * 120) / 120.0
+    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
+    return t, sim.theta + OFFSET + np.random.default_rng(3).normal(0.0, 1e-3, t.size)
+
+
+def _angle(path, zero: str | None):  # noqa: ANN001, ANN202
+    t, theta = _theta()
+    extra = {} if zero is None else {"zero_reference": zero}
+    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), path, "angle",
+                   provenance=Provenance(stage="angle", extra=extra))
+    return path
+
+
+def test_the_offset_rule():
+    assert fits_offset("auto", "vertical") and fits_offset("auto", "table")
+    assert not fits_offset("auto", "rest") and not fits_offset("auto", "truth") and not fits_offset("auto", "unknown")
+    assert fits_offset("always", "rest") and not fits_offset("never", "vertical")
+
+
+def test_zero_reference_of_each_kind_of_input(tmp_path):
+    t, theta = _theta()
+    table = tmp_path / "lab.txt"
+    np.savetxt(table, np.column_stack([t, theta]))
+    assert zero_reference(read_record(table)) == "table"
+    assert zero_reference(read_record(_angle(tmp_path / "v.parquet", "vertical"))) == "vertical"
+    assert zero_reference(read_record(_angle(tmp_path / "r.parquet", "rest"))) == "rest"
+    assert zero_reference(read_record(_angle(tmp_path / "u.parquet", None))) == "unknown"
+
+
+@pytest.fixture(scope="module")
+def vertical_fit(tmp_path_factory):
+    d = tmp_path_factory.mktemp("vertical")
+    out = fit_stage(_angle(d / "angle.parquet", "vertical"), out_dir=d / "fit", config=FAST, models=("standard",),
+                    progress=False)
+    return d / "fit", out
+
+
+def test_a_vertical_zero_is_fitted_as_theta_off(vertical_fit):
+    out_dir, out = vertical_fit
+    rec = read_json_artifact(out_dir / "fit_standard.json", required=FIT_JSON_KEYS)
+    # the requested name stays the record's "model" (file names, batch columns, the report key on it)
+    assert rec["model"] == "standard" and rec["fitted_model"] == "standard+offset"
+    assert rec["measurement"] == ["offset"]
+    off = rec["params"]["theta_off"]
+    assert abs(off["value"] - OFFSET) < 3.0 * off["stderr"], off
+    assert rec["trustworthy"] is True, rec["flags"]
+    facts = out.facts["models"]["standard"]
+    assert facts["fitted_model"] == "standard+offset" and facts["theta_off"] == pytest.approx(off["value"])
+    assert out.facts["zero_reference"] == "vertical"
+    combined = read_json_artifact(out_dir / "fit.json", required=FIT_JSON_KEYS)
+    assert combined["model"] == "standard" and "theta_off" in combined["params"]
+
+
+def test_a_measured_rest_fits_as_before(tmp_path):
+    path = _angle(tmp_path / "angle.parquet", "rest")
+    fit_stage(path, out_dir=tmp_path / "fit", config=FAST, models=("standard",), progress=False)
+    rec = json.loads((tmp_path / "fit" / "fit_standard.json").read_text())
+    assert rec["fitted_model"] == "standard" and "theta_off" not in rec["params"] and rec["measurement"] == []
+    # ... unless [fit] offset = "always"; and "never" turns the rule off for a vertical zero
+    fit_stage(path, out_dir=tmp_path / "always", config=FAST.replace("fit", offset="always"), models=("standard",),
+              progress=False)
+    assert "theta_off" in json.loads((tmp_path / "always" / "fit_standard.json").read_text())["params"]
+    vertical = _angle(tmp_path / "v.parquet", "vertical")
+    fit_stage(vertical, out_dir=tmp_path / "never", config=FAST.replace("fit", offset="never"), models=("standard",),
+              progress=False)
+    assert "theta_off" not in json.loads((tmp_path / "never" / "fit_standard.json").read_text())["params"]
+
+
+def test_fit_cli_on_a_plain_table_reports_theta_off(tmp_path):
+    t, theta = _theta()
+    table = tmp_path / "lab.txt"
+    np.savetxt(table, np.column_stack([t, theta, np.zeros(t.size)]))
+    cfg = tmp_path / "fast.toml"
+    cfg.write_text("[fit]\nn_starts = 2\nworkers = 1\nprofile = false\ntime_budget_s = 0.0\n")
+    res = CliRunner().invoke(cli, ["fit", str(table), "--columns", "t,theta,_", "--model", "standard", "--config",
+                                   str(cfg), "-q", "--out", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    assert "theta_off = " in res.output and "(fitted as standard+offset)" in res.output
+    rec = json.loads((tmp_path / "out" / "fit_standard.json").read_text())
+    assert rec["fitted_model"] == "standard+offset"
+    assert abs(rec["params"]["theta_off"]["value"] - OFFSET) < 3.0 * rec["params"]["theta_off"]["stderr"]
+
+
+def test_run_report_states_the_fitted_zero():
+    from pendtrack.report.run_report import zero_offsets
+
+    fits = {"classic": {"params": {"Omega0": {"value": 5.0}, "theta_off": {"value": 0.0123, "stderr": 4e-5}}},
+            "opa": {"params": {"Omega0": {"value": 5.0}}}}
+    run = SimpleNamespace(fits=fits, extra=lambda kind: {"zero_reference": "vertical"} if kind == "kinematics" else {})
+    assert zero_offsets(run) == "classic: 12.300 ± 0.040 mrad (zero reference: vertical)"
+    assert zero_offsets(SimpleNamespace(fits={"opa": fits["opa"]}, extra=lambda kind: {})) == ""
