@@ -245,7 +245,8 @@ def write_markdown(result: DiscoveryResult) -> str:
               "still has structure. Each candidate is fitted by output error on the first "
               f"{_f(100 * th['train_fraction'], '.0f')} % of the record and simulated over the whole record; "
               "it is kept "
-              f"only if its held-out RMS gain is significant against noise (z > {_f(th['heldout_z_min'], '.1f')}) and at "
+              "only if its held-out RMS gain is significant against noise "
+              f"(z > {_f(th['heldout_z_min'], '.1f')}) and at "
               f"least {_f(100 * th.get('heldout_min_gain', 0.0), '.0f')} % of the held-out RMS, and "
               f"BIC drops by more than {_f(-th['delta_bic_max'], '.0f')} on the whole record. The passing candidate "
               "with the lowest BIC is added and the search repeats until nothing earns its keep.", ""]

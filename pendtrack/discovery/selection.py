@@ -151,11 +151,13 @@ def _model(baseline: str, extra: Sequence[str]):  # noqa: ANN202
 
 def _simulate(model, summary: FitSummary, t: np.ndarray,  # noqa: ANN001
               memory_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """The fitted model's *observed* angle (its measurement terms applied) and its angular velocity."""
+    """The fitted model as the camera sees it: angle [rad] and angular velocity [rad/s] through its
+    measurement terms (:meth:`pendtrack.models.Model.observe_state`; the identity without them)."""
     from pendtrack.models import simulate
 
     sim = simulate(model, summary.values, t, theta0=summary.theta0, omega0=summary.omega0, memory_s=memory_s)
-    return np.asarray(model.observe(np.asarray(sim.theta), summary.values)), np.asarray(sim.omega)
+    theta, omega = model.observe_state(np.asarray(sim.theta), np.asarray(sim.omega), summary.values)
+    return np.asarray(theta), np.asarray(omega)
 
 
 def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
@@ -182,7 +184,7 @@ def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
 
 
 def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
-    """One fit by :func:`pendtrack.fitting.fit_model` with :func:`fit_options`: the training part or the whole record."""
+    """One fit by :func:`pendtrack.fitting.fit_model` with :func:`fit_options`: training part or whole record."""
     from pendtrack.fitting import Observation, fit_model
 
     t_wall = time.perf_counter()
