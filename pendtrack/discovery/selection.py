@@ -112,6 +112,7 @@ class FitTask:
     memory_s: float
     workers: int = 1
     extra_starts: tuple[dict[str, float], ...] = ()  # further complete starts (best training cost wins)
+    fixed: dict[str, float] | None = None  # parameters held in the training fit (a measurement term's physics)
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,6 +195,7 @@ def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
     options, model_options = fit_options(task, full=full)
     fit = fit_model(model, d.t, d.theta, d.omega, options=options, model_options=model_options, alpha=d.alpha,
                     window=None if full else d.train_window, observation=obs, initial=task.initial,
+                    fixed=None if full else task.fixed,
                     extra_starts=() if full else task.extra_starts, seed=task.seed, workers=task.workers,
                     source=d.source)
     log.debug("fit %s (%s): xi2 %.6g rms %.6g in %.1f s", model.name, "whole" if full else "train",
