@@ -64,7 +64,7 @@ def test_real_data_page_says_what_was_found(real_discovery):
     text = (real_discovery / "discovery.md").read_text()
     assert "## Verdict" in text and "## What the baseline gets wrong" in text
     assert "Measurement finding: **zero offset**" in text and "not of the pendulum's physics" in text
-    assert "Residual RMS:" in text
+    assert "Residual RMS, term by term in the order kept" in text
     if record["unexplained"]:
         assert "Not explained by the catalogue" in text
         assert all(name in text for name in record["unexplained"])

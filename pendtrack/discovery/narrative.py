@@ -104,7 +104,7 @@ def _measurement_verdict(r: Mapping[str, Any]) -> list[str]:
                        f"{_mrad(s['rms_before'])} to {_mrad(s['rms_after'])} mrad and the held-out RMS from "
                        f"{_mrad(s['heldout_rms_before'])} to {_mrad(s['heldout_rms_after'])} mrad "
                        f"(z = {_f(s['heldout_z'], '.1f')}), dBIC = {_f(s['delta_bic'], '.1f')}; it stays in the "
-                       "observation of every model below.")
+                       "observation of every later model and of the final one.")
     return out
 
 
@@ -170,11 +170,19 @@ def write_markdown(result: DiscoveryResult) -> str:
         lines.append("No effect is added.")
     fm = r["final_model"]
     final_d = diag.get("final") or base_d
-    lines.append(f"Residual RMS: {_mrad(r['baseline_fit']['rms'])} mrad with `{r['baseline']}` -> "
-                 + (f"{_mrad(r['measurement_steps'][-1]['rms_after'])} mrad with the measurement modelled -> "
-                    if r.get("measurement_steps") else "")
-                 + f"{_mrad(fm['rms'])} mrad with `{fm['model']}` ({_f(final_d['rms_over_noise'], '.2f')} times "
-                 f"the noise of {_mrad(final_d['sigma'])} mrad).")
+    chain = [f"{_mrad(r['baseline_fit']['rms'])} mrad with `{r['baseline']}`"]
+    by_term = {t: st for st in [*r.get("measurement_steps", []), *r["steps"]] for t in st["terms"]}
+    seen = set()
+    for term in r.get("order", []):
+        st = by_term.get(term)
+        if st is None or id(st) in seen:
+            continue
+        seen.add(id(st))
+        what = "measurement" if st.get("kind") == "measurement" else "effect"
+        chain.append(f"{_mrad(st['rms_after'])} mrad with {' + '.join(f'`{x}`' for x in st['terms'])} ({what})")
+    lines.append("Residual RMS, term by term in the order kept: " + " -> ".join(chain)
+                 + f"; final `{fm['model']}`: {_mrad(fm['rms'])} mrad, {_f(final_d['rms_over_noise'], '.2f')} times "
+                 f"the noise of {_mrad(final_d['sigma'])} mrad.")
     if r.get("unexplained"):
         lines.append(f"**Not explained by the catalogue:** {', '.join(r['unexplained'])} "
                      f"{'is' if len(r['unexplained']) == 1 else 'are'} still off after the final model. "

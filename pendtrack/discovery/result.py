@@ -265,6 +265,9 @@ class DiscoveryResult:
         Measurement terms kept (``offset``, ``angle_scale``): findings about the record, not
         causes; they stay in the model while the effects are searched.
     measurement_steps : tuple of Step
+    order : tuple of str
+        Every term of the final model beyond the baseline, in the order it was kept
+        (measurement terms and effects interleaved).
     unexplained : tuple of str
         Diagnostics still off after the final model
         (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`): structure no term removed.
@@ -285,6 +288,7 @@ class DiscoveryResult:
     measurement: tuple[str, ...] = ()
     measurement_steps: tuple[Step, ...] = ()
     unexplained: tuple[str, ...] = ()
+    order: tuple[str, ...] = ()
 
     @property
     def runners_up(self) -> tuple[Candidate, ...]:
@@ -303,6 +307,7 @@ class DiscoveryResult:
             "measurement": list(self.measurement),
             "measurement_steps": [s.to_dict() for s in self.measurement_steps],
             "unexplained": list(self.unexplained),
+            "order": list(self.order or (*self.measurement, *self.effects)),
             "diagnosis": _jsonable(self.diagnosis),
             "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.effects),
                             "measurement_terms": list(self.measurement),

@@ -360,7 +360,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
                            final_heldout_rms=current.heldout_rms, diagnosis=diagnosis, thresholds=thresholds,
                            data={**series.to_dict(), "analysis": data.to_dict(), "timing": timing},
                            runtime_s=time.perf_counter() - t_wall, measurement=tuple(meas_kept),
-                           measurement_steps=tuple(meas_steps), unexplained=unexplained)
+                           measurement_steps=tuple(meas_steps), unexplained=unexplained, order=tuple(order))
 
 
 def _diagnosis_record(baseline: str, pool: Sequence[C.Effect], diag_base: Diagnosis, diag_final: Diagnosis | None,
