@@ -224,7 +224,9 @@ def write_markdown(result: DiscoveryResult) -> str:
     lines.append("")
     if r["runners_up"]:
         lines += ["### Runners-up", ""]
-        rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]), f"`{c['effect']}`",
+        rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]),
+                 f"`{c['effect']}`" + (" (physics held)" if c.get("kind") == "measurement"
+                                       and c.get("signature_score") == 1.0 else ""),
                  _mrad(c["heldout_rms"]), _f(c["heldout_z"], ".1f"), _f(c["delta_bic"], ".1f"), c["reason"])
                 for c in r["runners_up"]]
         lines += _table(("step", "term(s)", "held-out RMS [mrad]", "z", "dBIC", "why not kept"), rows)
