@@ -28,8 +28,8 @@ Measured 2026-11-24 (base seed 20250, default suite, load 4-9 on the 2 shared co
 singles 2/3 named first (added mass taken for memory; xfail, strict), controls 2/2 clean, pairs
 0/3 (xfail, strict), artefacts 8/8 (4 offsets of 6.8-10.0 mrad, 4 scale errors of 6-14 % at
 2.5 rad: the term kept, dBIC -242 to -3348, held-out z 9.9-123; no effect, nothing unexplained).
-The singles, controls and pairs were measured before each measurement term was also tried with
-the physics held (the artefacts after). Wall time of the default suite ~25 min at that load (the
+Singles, controls and artefacts measured with the final code; the pairs before each measurement
+term was also tried with the physics held. Wall time of the default suite ~25 min at that load (the
 16 cases cost 20-140 s each): more than the few minutes asked for.
 
 The default (CI) suite runs 16 cases on 30 fps records (20-65 s: see the record sizes below;
