@@ -199,6 +199,9 @@ class DiscoverConfig:
     heldout_z_min: float = 3.0  # ... and its held-out gain exceeds noise by this many standard deviations
     heldout_min_gain: float = 0.01  # ... and is at least this share of the held-out RMS [1]
     max_effects: int = 3  # at most this many effects are added
+    measurement: tuple[str, ...] = ("offset", "angle_scale")  # measurement terms tried before any effect; () = none
+    max_combination: int = 2  # effects tried together when no single one earns its keep (1 = singles only)
+    combination_pool: int = 4  # the singles with the best held-out gain that enter the combinations
     n_starts_baseline: int = 2  # multi-start fits of the baseline (data-derived starts, each polished)
     n_starts: int = 1  # random starts around the warm start per candidate fit (+ the scaled starts)
     workers: int = 0  # processes for the candidate fits; 0 = all cores
@@ -345,6 +348,9 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "discover.heldout_z_min": (_ge(0),),
     "discover.heldout_min_gain": (_ge(0),),
     "discover.max_effects": (_ge(0),),
+    "discover.measurement": (_NAMES,),
+    "discover.max_combination": (_within(1, 3),),
+    "discover.combination_pool": (_ge(2),),
     "discover.n_starts_baseline": (_ge(1),),
     "discover.n_starts": (_ge(0),),
     "discover.workers": (_ge(0),),

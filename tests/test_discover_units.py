@@ -202,3 +202,102 @@ def test_catalogue_candidates_and_ranking():
     evidence = {"dephasing": 30.0, "negative_damping": 12.0, "hysteresis": 5.0}
     assert C.rank(C.candidates("standard"), evidence)[0][0].name == "memory"
     assert all(s == 0 for _, s in C.rank(C.candidates("standard"), {}))
+
+
+# --- measurement terms, combinations, what stays unexplained ------------------------------
+
+def test_measurement_catalogue_and_unknown_term():
+    names = [a.name for a in C.measurement_candidates("standard", ("offset", "angle_scale"))]
+    assert names == ["offset", "angle_scale"]
+    assert C.MEASUREMENT["offset"].params == ("theta_off",) and C.MEASUREMENT["angle_scale"].params == ("k_scale",)
+    assert not set(C.MEASUREMENT) & set(C.CATALOGUE)  # a measurement term is never a physical effect
+    with pytest.raises(ConfigError, match="unknown measurement term 'lens'"):
+        C.measurement_candidates("standard", ("lens",))
+
+
+def test_measurement_starts_are_the_current_optimum_and_the_residual_least_squares():
+    from types import SimpleNamespace
+
+    from pendtrack.discovery.starts import measurement_starts
+
+    t, theta, _ = _oscillation(20.0)
+    data = SimpleNamespace(theta=theta + 0.01 + 0.02 * theta**3, heldout=t > 12.0)
+    warm = {"Omega0": W0, "theta0": 0.0, "omega0": 1.0}
+    off = measurement_starts("offset", warm, data, theta)
+    assert off[0]["theta_off"] == 0.0 and off[0]["Omega0"] == W0
+    # the residual's mean: the offset plus the (small, odd) cubic's mean over whole swings
+    assert off[1]["theta_off"] == pytest.approx(0.01, abs=1e-3)
+    k = measurement_starts("angle_scale", warm, SimpleNamespace(theta=theta + 0.02 * theta**3, heldout=t > 12.0),
+                           theta)
+    assert k[0]["k_scale"] == 0.0 and k[1]["k_scale"] == pytest.approx(0.02, rel=1e-9)  # exact: r = k theta^3
+    assert measurement_starts("memory", warm, data, theta) == []
+
+
+def test_combination_starts_take_each_single_fit_and_the_others_scaled_start():
+    from pendtrack.discovery.starts import combination_starts
+
+    singles = {"added_mass": {"Omega0": 5.0, "C1": 0.02, "Ca": 0.015, "theta0": 2.9, "omega0": 0.0},
+               "memory": {"Omega0": 5.01, "C1": 0.018, "G2": 0.004, "beta": 0.5, "p_f": 1.5, "theta0": 2.9,
+                          "omega0": 0.0}}
+    scaled = {"added_mass": [{"Ca": 1e-4}, {"Ca": 0.003}],
+              "memory": [{"G2": 1e-5, "beta": 0.5, "p_f": 1.5}, {"G2": 0.001, "beta": 0.5, "p_f": 1.5}]}
+    starts = combination_starts(("added_mass", "memory"), singles, scaled)
+    assert len(starts) == 2
+    assert starts[0]["Ca"] == 0.015 and starts[0]["G2"] == 0.001 and starts[0]["Omega0"] == 5.0
+    assert starts[1]["G2"] == 0.004 and starts[1]["Ca"] == 0.003 and starts[1]["Omega0"] == 5.01
+    # a single that could not be fitted gives no start; a term without a scaled start leaves it incomplete
+    assert combination_starts(("added_mass", "memory"), {"memory": singles["memory"]}, scaled)[0]["Ca"] == 0.003
+    assert combination_starts(("added_mass", "memory"), singles, {"memory": scaled["memory"]}) == [starts[0]]
+
+
+def test_combinations_come_from_the_best_singles_by_heldout_gain():
+    from types import SimpleNamespace
+
+    from pendtrack.discovery.search import _combinations
+
+    def cand(name, gain, error=""):
+        return SimpleNamespace(effect=name, heldout_gain=gain, error=error)
+
+    fitted = SimpleNamespace(train=object())
+    singles = [cand("a", 1e-4), cand("b", 3e-4), cand("c", -math.inf), cand("d", 2e-4), cand("e", 5e-4, "failed")]
+    pairs = [fitted, fitted, fitted, fitted, fitted]
+    assert _combinations(singles, pairs, 2, 3) == [("b", "d"), ("b", "a"), ("d", "a")]
+    assert _combinations(singles, pairs, 3, 3) == [("b", "d", "a")]
+    assert _combinations(singles, [fitted, SimpleNamespace(train=None), fitted, fitted, fitted], 2, 2) == [("d", "a")]
+
+
+def test_off_diagnostics_uses_each_limit():
+    from pendtrack.discovery.diagnostics import EVIDENCE_KEYS, off_diagnostics
+
+    quiet = {k: 0.0 for k in EVIDENCE_KEYS}
+    assert off_diagnostics(quiet) == []
+    assert off_diagnostics({**quiet, "harmonic_line": 15.0, "excess_rms": 0.1, "offset": 2.9}) == []
+    assert off_diagnostics({**quiet, "harmonic_line": 25.0, "excess_rms": 0.3, "offset": 3.1}) == [
+        "excess_rms", "harmonic_line", "offset"]
+
+
+@pytest.mark.parametrize("rate_hz", [30.0, 120.0])
+def test_low_rate_records_keep_the_filter_and_memory_durations(rate_hz):
+    from pendtrack.config import Config
+    from pendtrack.discovery.data import prepare
+    from pendtrack.discovery.inputs import AngleSeries
+    from pendtrack.models import compose
+
+    cfg = Config()
+    t = np.arange(int(40 * rate_hz)) / rate_hz
+    series = AngleSeries(t, 0.5 * np.cos(5.5 * t), source="x", kind="table")  # type: ignore[arg-type]
+    d = prepare(series, analysis_rate_hz=cfg.discover.analysis_rate_hz, train_fraction=0.6,
+                savgol_window_s=cfg.kinematics.savgol_window_s, savgol_order=cfg.kinematics.savgol_order)
+    assert d.decimation == (2 if rate_hz == 120.0 else 1)  # 30 fps is analysed as recorded
+    # the filter is a duration: within one (odd-rounded) window step of savgol_window_s at either rate
+    assert abs(d.savgol_window * d.dt - cfg.kinematics.savgol_window_s) <= d.dt
+    assert d.savgol_window >= cfg.kinematics.savgol_order + 2
+    # the memory is a duration too: the Grunwald-Letnikov sum reaches back memory_s at either rate
+    # (within half a step), so a 30 fps record's memory term is the same physics as a 120 Hz one's
+    from pendtrack.models import compose, simulate
+
+    p = {"Omega0": 5.5, "C1": 0.02, "C0": 0.01, "C2": 0.004, "G2": 0.008, "beta": 0.5, "p_f": 1.5}
+    sim = simulate(compose("standard", ["memory"]), p, d.t[:200], theta0=2.0, omega0=0.0,
+                   memory_s=cfg.models.memory_s)
+    step = d.dt / max(sim.substeps, 1)  # the simulation's internal step (sub-steps on a coarse grid)
+    assert abs(sim.memory_steps * step - cfg.models.memory_s) <= 0.5 * step

@@ -145,3 +145,72 @@ def rank(effects: Iterable[Effect], evidence: Mapping[str, float]) -> list[tuple
     """Effects ordered by signature score, highest first (ties keep catalogue order)."""
     scored = [(e, e.score(evidence)) for e in effects]
     return sorted(scored, key=lambda es: -es[1])
+
+
+@dataclass(frozen=True)
+class Artefact:
+    """One measurement term: how the record's angle may differ from the pendulum's.
+
+    Attributes
+    ----------
+    name : str
+        Term name in :data:`pendtrack.models.MEASUREMENT_TERMS`.
+    title : str
+        Plain name ("zero offset").
+    meaning : str
+        What it says about the measurement (a finding about the record, never a cause).
+    """
+
+    name: str
+    title: str
+    meaning: str
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        """The parameters the term adds."""
+        from pendtrack.models import MEASUREMENT_TERMS
+
+        return MEASUREMENT_TERMS[self.name].params
+
+    @property
+    def formula(self) -> str:
+        from pendtrack.models import MEASUREMENT_TERMS
+
+        return MEASUREMENT_TERMS[self.name].formula
+
+    def to_dict(self) -> dict[str, object]:
+        return {"name": self.name, "title": self.title, "params": list(self.params), "formula": self.formula,
+                "meaning": self.meaning}
+
+
+#: Measurement terms discovery tries before any physical effect. They enter the observation
+#: (``Model.observe``), not the equation of motion.
+MEASUREMENT: dict[str, Artefact] = {
+    a.name: a
+    for a in (
+        Artefact("offset", "zero offset",
+                 "theta's zero is not the rest position (the vertical was misjudged, or the tracked spot is "
+                 "off the pendulum's axis): theta_obs = theta + theta_off"),
+        Artefact("angle_scale", "angle-scale distortion",
+                 "the measured angle is stretched or squeezed more at large angles (lens distortion, "
+                 "perspective, a wrong pivot): theta_obs = theta (1 + k_scale theta^2)"),
+    )
+}
+
+
+def measurement_candidates(baseline: str, names: Iterable[str]) -> tuple[Artefact, ...]:
+    """The measurement terms to try on ``baseline`` (those it does not already have).
+
+    Raises
+    ------
+    ConfigError
+        An unknown measurement term.
+    """
+    base_terms = set(get_model(baseline).terms)
+    out = []
+    for n in names:
+        if n not in MEASUREMENT:
+            raise ConfigError(f"unknown measurement term '{n}' (known: {', '.join(MEASUREMENT)})")
+        if n not in base_terms:
+            out.append(MEASUREMENT[n])
+    return tuple(out)

@@ -26,6 +26,18 @@ EVIDENCE_KEYS = ("excess_rms", "whiteness", "dephasing", "harmonic_line", "envel
                  "frequency_amplitude", "hysteresis", "negative_damping", "offset")
 
 
+NOISE_Z = 3.0  # a diagnostic is "off" when its z-like evidence exceeds this (one-sided p ~ 0.0014)
+#: Limits other than :data:`NOISE_Z`: the line's power over the spectrum's floor (a periodogram
+#: bin of white noise exceeds 20 with p ~ e^-20), and a residual RMS 20 % above the noise level
+#: (the synthetic hidden effects are drawn at least that large).
+OFF_LIMITS = {"harmonic_line": 20.0, "excess_rms": 0.2}
+
+
+def off_diagnostics(evidence: dict[str, float] | Any) -> list[str]:
+    """The diagnostics whose evidence says the model misses something, in :data:`EVIDENCE_KEYS` order."""
+    return [k for k in EVIDENCE_KEYS if float(evidence.get(k, 0.0)) > OFF_LIMITS.get(k, NOISE_Z)]
+
+
 def model_phase(theta_m: np.ndarray, omega_m: np.ndarray, omega0: float) -> np.ndarray:
     """The model's phase ``phi`` with ``tan phi = A_theta/A_omega`` (eq. phasephi), unwrapped [rad]."""
     return np.unwrap(np.arctan2(np.sin(0.5 * theta_m), omega_m / (2.0 * omega0)))

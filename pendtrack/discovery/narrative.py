@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from pendtrack.discovery.catalogue import CATALOGUE
+from pendtrack.discovery.diagnostics import NOISE_Z, off_diagnostics
 from pendtrack.discovery.result import DiscoveryResult
 
-NOISE_Z = 3.0  # a diagnostic is "off" when its z-like evidence exceeds this
 
 
 def _f(x: Any, fmt: str = ".3g") -> str:
@@ -86,8 +86,26 @@ def _mean_offset(cycles: Mapping[str, Any]) -> float:
 
 def _off(evidence: Mapping[str, float]) -> list[str]:
     """Diagnostics whose evidence says the model misses something (see :data:`NOISE_Z`)."""
-    limits = {"harmonic_line": 20.0, "excess_rms": 0.2}  # line power/floor; residual RMS 20 % above noise
-    return [k for k, v in evidence.items() if v > limits.get(k, NOISE_Z)]
+    return off_diagnostics(evidence)
+
+
+def _measurement_verdict(r: Mapping[str, Any]) -> list[str]:
+    """Sentences on the measurement terms kept: findings about the record, not causes."""
+    from pendtrack.discovery.catalogue import MEASUREMENT
+
+    out = []
+    for s in r.get("measurement_steps", []):
+        for name in s["terms"]:
+            a = MEASUREMENT[name]
+            params = "; ".join(f"{k} = {_pm(v['value'], v['stderr'])}" for k, v in s["params"].items()
+                               if k in a.params)
+            out.append(f"Measurement finding: **{a.title}** (`{name}`, {params}): {a.meaning}. It is a property "
+                       f"of the record, not of the pendulum's physics; modelling it lowers the residual RMS from "
+                       f"{_mrad(s['rms_before'])} to {_mrad(s['rms_after'])} mrad and the held-out RMS from "
+                       f"{_mrad(s['heldout_rms_before'])} to {_mrad(s['heldout_rms_after'])} mrad "
+                       f"(z = {_f(s['heldout_z'], '.1f')}), dBIC = {_f(s['delta_bic'], '.1f')}; it stays in the "
+                       "observation of every later model and of the final one.")
+    return out
 
 
 def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
@@ -122,35 +140,59 @@ def write_markdown(result: DiscoveryResult) -> str:
     lines.append("")
     lines += ["## Verdict", ""]
     off = _off(ev)
+    lines.append(f"The `{r['baseline']}` model leaves a residual {_f(base_d['rms_over_noise'], '.2f')} times the "
+                 f"noise (RMS {_mrad(r['baseline_fit']['rms'])} mrad), with structure in: {', '.join(off) or 'none'}.")
+    lines += _measurement_verdict(r)
     if r["effects"]:
-        first = r["effects"][0]
-        e = CATALOGUE[first]
         s0 = r["steps"][0]
-        lines.append(f"The `{r['baseline']}` model leaves a residual {_f(base_d['rms_over_noise'], '.2f')} times the "
-                     f"noise, with structure in: {', '.join(off) or 'none'}. The cause named is **{e.title}** "
-                     f"(`{first}`: {e.physics}). Adding it lowers the residual RMS from {_mrad(s0['rms_before'])} to "
-                     f"{_mrad(s0['rms_after'])} mrad and the held-out RMS from {_mrad(s0['heldout_rms_before'])} to "
-                     f"{_mrad(s0['heldout_rms_after'])} mrad (z = {_f(s0['heldout_z'], '.1f')}), "
-                     f"dBIC = {_f(s0['delta_bic'], '.1f')}.")
-        if len(r["effects"]) > 1:
-            lines.append(f"Further effects kept, in order: {', '.join(f'`{x}`' for x in r['effects'][1:])}.")
+        named = [CATALOGUE[x] for x in s0["terms"]]
+        together = len(named) > 1
+        what = " together with ".join(f"**{e.title}** (`{e.name}`: {e.physics})" for e in named)
+        lines.append(f"The cause{'s' if together else ''} named {'are' if together else 'is'} {what}"
+                     + (" (neither alone earned its keep; together they did)" if together else "")
+                     + f". Adding {'them' if together else 'it'} lowers the residual RMS from "
+                     f"{_mrad(s0['rms_before'])} to {_mrad(s0['rms_after'])} mrad and the held-out RMS from "
+                     f"{_mrad(s0['heldout_rms_before'])} to {_mrad(s0['heldout_rms_after'])} mrad "
+                     f"(z = {_f(s0['heldout_z'], '.1f')}), dBIC = {_f(s0['delta_bic'], '.1f')}.")
+        later = [x for s in r["steps"][1:] for x in s["terms"]]
+        if later:
+            lines.append(f"Further effects kept, in order: {', '.join(f'`{x}`' for x in later)}.")
         top = diag.get("signature_top")
-        if top and top != first:
+        first = s0["terms"][0]
+        if top and top not in s0["terms"]:
             lines.append(f"The signatures pointed first to `{top}`; the held-out test and BIC preferred `{first}`.")
         elif top:
             lines.append("The decision agrees with the signature ranking.")
+    elif off:
+        lines.append("No effect of the catalogue, alone or in combination, earns its parameters on held-out data "
+                     "and BIC: no physical cause is named.")
     else:
-        if off:
-            lines.append(f"The `{r['baseline']}` model leaves structure in: {', '.join(off)} "
-                         f"(residual {_f(base_d['rms_over_noise'], '.2f')} times the noise), but no effect of the "
-                         "catalogue earns its parameters on held-out data and BIC: no cause is named.")
-        else:
-            lines.append(f"The `{r['baseline']}` model explains the record to within the noise "
-                         f"(residual {_f(base_d['rms_over_noise'], '.2f')} times the noise); no effect is added.")
-    if ev.get("offset", 0.0) > NOISE_Z:
-        lines.append(f"The residual also has a persistent mean level of {_mrad(_mean_offset(base_d['cycles']))} mrad: "
-                     "theta's zero is probably not the rest position (or a constant torque acts); no term of the "
-                     "catalogue models that, so it stays in every model's residual.")
+        lines.append("No effect is added.")
+    fm = r["final_model"]
+    final_d = diag.get("final") or base_d
+    chain = [f"{_mrad(r['baseline_fit']['rms'])} mrad with `{r['baseline']}`"]
+    by_term = {t: st for st in [*r.get("measurement_steps", []), *r["steps"]] for t in st["terms"]}
+    seen = set()
+    for term in r.get("order", []):
+        st = by_term.get(term)
+        if st is None or id(st) in seen:
+            continue
+        seen.add(id(st))
+        what = "measurement" if st.get("kind") == "measurement" else "effect"
+        chain.append(f"{_mrad(st['rms_after'])} mrad with {' + '.join(f'`{x}`' for x in st['terms'])} ({what})")
+    lines.append("Residual RMS, term by term in the order kept: " + " -> ".join(chain)
+                 + f"; final `{fm['model']}`: {_mrad(fm['rms'])} mrad, {_f(final_d['rms_over_noise'], '.2f')} times "
+                 f"the noise of {_mrad(final_d['sigma'])} mrad.")
+    if r.get("unexplained"):
+        lines.append(f"**Not explained by the catalogue:** {', '.join(r['unexplained'])} "
+                     f"{'is' if len(r['unexplained']) == 1 else 'are'} still off after the final model. "
+                     "No catalogue term removes this structure; the terms kept are not its cause.")
+    else:
+        lines.append("Nothing stays unexplained: every diagnostic of the final model is within the noise.")
+    if ev.get("offset", 0.0) > NOISE_Z and "offset" not in r.get("measurement", []):
+        lines.append(f"The baseline's residual has a persistent mean level of "
+                     f"{_mrad(_mean_offset(base_d['cycles']))} mrad: theta's zero is probably not the rest position "
+                     "(or a constant torque acts); the zero-offset term did not earn its keep.")
     lines.append("")
 
     lines += ["## What the baseline gets wrong", ""]
@@ -166,24 +208,28 @@ def write_markdown(result: DiscoveryResult) -> str:
     lines += ["", "Signatures rank the candidates; the decision is by held-out error and BIC.", ""]
 
     lines += ["## Extending the model", ""]
-    if r["steps"]:
+    if r["steps"] or r.get("measurement_steps"):
         rows = []
-        for s in r["steps"]:
+        for s in [*r.get("measurement_steps", []), *r["steps"]]:
             params = "; ".join(f"{k} = {_pm(v['value'], v['stderr'])}" for k, v in s["params"].items())
-            rows.append((f"`{s['effect']}`", params, f"{_mrad(s['rms_before'])} -> {_mrad(s['rms_after'])}",
+            label = f"`{s['effect']}`" + (" (measurement)" if s.get("kind") == "measurement" else "")
+            rows.append((label, params, f"{_mrad(s['rms_before'])} -> {_mrad(s['rms_after'])}",
                          f"{_f(s['xi2_before'])} -> {_f(s['xi2_after'])}",
                          f"{_mrad(s['heldout_rms_before'])} -> {_mrad(s['heldout_rms_after'])} "
                          f"(z = {_f(s['heldout_z'], '.1f')})", _f(s["delta_bic"], ".1f")))
-        lines += _table(("effect", "new parameters (± stderr)", "RMS [mrad]", "Xi^2", "held-out RMS [mrad]", "dBIC"),
+        lines += _table(("term", "new parameters (± stderr)", "RMS [mrad]", "Xi^2", "held-out RMS [mrad]", "dBIC"),
                         rows)
     else:
         lines.append("No effect was added.")
     lines.append("")
     if r["runners_up"]:
         lines += ["### Runners-up", ""]
-        rows = [(str(c["step"]), f"`{c['effect']}`", _mrad(c["heldout_rms"]), _f(c["heldout_z"], ".1f"),
-                 _f(c["delta_bic"], ".1f"), c["reason"]) for c in r["runners_up"]]
-        lines += _table(("step", "effect", "held-out RMS [mrad]", "z", "dBIC", "why not kept"), rows)
+        rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]),
+                 f"`{c['effect']}`" + (" (physics held)" if c.get("kind") == "measurement"
+                                       and c.get("signature_score") == 1.0 else ""),
+                 _mrad(c["heldout_rms"]), _f(c["heldout_z"], ".1f"), _f(c["delta_bic"], ".1f"), c["reason"])
+                for c in r["runners_up"]]
+        lines += _table(("step", "term(s)", "held-out RMS [mrad]", "z", "dBIC", "why not kept"), rows)
         lines.append("")
 
     fm = r["final_model"]
@@ -198,13 +244,19 @@ def write_markdown(result: DiscoveryResult) -> str:
         still = _off(fd["evidence"])
         lines.append(f"After the extension the residual is {_f(fd['rms_over_noise'], '.2f')} times the noise; "
                      f"still off: {', '.join(still) or 'nothing'}.")
+        lines.append("")
+        lines += ["### Diagnostics of the final model", ""]
+        lines += _table(("diagnostic", "value", "noise alone", ""), _diagnostic_rows(fd))
     lines.append("")
     th = r["thresholds"]
     lines += ["## How the decision was made", "",
-              f"Forward selection. Each candidate is fitted by output error on the first "
+              "Forward selection: the measurement terms (theta's zero, its scale) first, then the physical "
+              "effects one at a time, and pairs of effects when no single one earns its keep but the residual "
+              "still has structure. Each candidate is fitted by output error on the first "
               f"{_f(100 * th['train_fraction'], '.0f')} % of the record and simulated over the whole record; "
               "it is kept "
-              f"only if its held-out RMS gain is significant against noise (z > {_f(th['heldout_z_min'], '.1f')}) and at "
+              "only if its held-out RMS gain is significant against noise "
+              f"(z > {_f(th['heldout_z_min'], '.1f')}) and at "
               f"least {_f(100 * th.get('heldout_min_gain', 0.0), '.0f')} % of the held-out RMS, and "
               f"BIC drops by more than {_f(-th['delta_bic_max'], '.0f')} on the whole record. The passing candidate "
               "with the lowest BIC is added and the search repeats until nothing earns its keep.", ""]

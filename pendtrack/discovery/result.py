@@ -97,7 +97,8 @@ class Candidate:
     step : int
         Selection step (1 = first extension of the baseline).
     signature_score : float
-        Its signature score on the current model's diagnosis (the order it was tried in).
+        Its signature score on the current model's diagnosis (the order it was tried in); for a
+        measurement term 1 when its training fit held the physics at the current fit, else 0.
     train, full : FitSummary
         Fit on the training part and on the whole record.
     heldout_rms : float
@@ -112,6 +113,12 @@ class Candidate:
         The two tests.
     error : str
         Why the candidate could not be fitted ("" when it could).
+    terms : tuple of str
+        The terms the candidate adds (several for a combination; default ``(effect,)``).
+    kind : str
+        ``"measurement"`` (a term of the observation) or ``"effect"`` (physics).
+    note : str
+        Why a term kept earlier was dropped (the final check), else "".
     """
 
     effect: str
@@ -126,6 +133,14 @@ class Candidate:
     passes_bic: bool
     passes_heldout: bool
     error: str = ""
+    terms: tuple[str, ...] = ()
+    kind: str = "effect"
+    note: str = ""
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The terms added (``terms``, or the one ``effect``)."""
+        return self.terms or (self.effect,)
 
     @property
     def earns_keep(self) -> bool:
@@ -134,6 +149,8 @@ class Candidate:
 
     def reason(self) -> str:
         """One line: why it was (not) kept."""
+        if self.note:
+            return self.note
         if self.error:
             return f"could not be fitted: {self.error}"
         if not math.isfinite(self.delta_bic):
@@ -145,22 +162,26 @@ class Candidate:
         return "; ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"effect": self.effect, "step": self.step, "signature_score": _num(self.signature_score),
+        return {"effect": self.effect, "terms": list(self.names), "kind": self.kind, "step": self.step,
+                "signature_score": _num(self.signature_score),
                 "model": (self.full or self.train).model if (self.full or self.train) else None,
-                "params": (self.full or self.train).params(_term_params(self.effect)) if (self.full or self.train)
+                "params": (self.full or self.train).params(_term_params(self.names)) if (self.full or self.train)
                 else {},
                 "params_from": "whole record" if self.full else ("training part" if self.train else None),
                 "rms": _num(self.full.rms) if self.full else None, "xi2": _num(self.full.xi2) if self.full else None,
                 "heldout_rms": _num(self.heldout_rms), "heldout_gain": _num(self.heldout_gain),
                 "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic), "passes_bic": self.passes_bic,
-                "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep, "reason": self.reason(),
+                "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep and not self.note,
+                "reason": self.reason(),
                 "error": self.error}
 
 
-def _term_params(effect: str) -> tuple[str, ...]:
-    from pendtrack.models import TERMS
+def _term_params(terms: str | tuple[str, ...]) -> tuple[str, ...]:
+    """The parameters the named term(s) add (physical or measurement terms)."""
+    from pendtrack.models import CATALOGUE
 
-    return TERMS[effect].params
+    names = (terms,) if isinstance(terms, str) else tuple(terms)
+    return tuple(p for n in names for p in CATALOGUE[n].params)
 
 
 @dataclass(frozen=True)
@@ -179,6 +200,12 @@ class Step:
         Significance of the held-out gain [1].
     delta_bic : float
         ``bic_after - bic_before`` [1].
+    terms : tuple of str
+        The terms added in this step (several when a combination was kept; default ``(effect,)``).
+    kind : str
+        ``"measurement"`` or ``"effect"``.
+    step : int
+        Its number within its kind (1 = first).
     """
 
     effect: str
@@ -188,10 +215,19 @@ class Step:
     heldout_rms_after: float
     heldout_z: float
     delta_bic: float
+    terms: tuple[str, ...] = ()
+    kind: str = "effect"
+    step: int = 0
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The terms added (``terms``, or the one ``effect``)."""
+        return self.terms or (self.effect,)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"effect": self.effect, "model": self.after.model,
-                "params": self.after.params(_term_params(self.effect)),
+        return {"effect": self.effect, "terms": list(self.names), "kind": self.kind, "step": self.step,
+                "model": self.after.model,
+                "params": self.after.params(_term_params(self.names)),
                 "rms_before": _num(self.before.rms), "rms_after": _num(self.after.rms),
                 "xi2_before": _num(self.before.xi2), "xi2_after": _num(self.after.xi2),
                 "heldout_rms_before": _num(self.heldout_rms_before), "heldout_rms_after": _num(self.heldout_rms_after),
@@ -208,8 +244,9 @@ class DiscoveryResult:
     baseline : str
         Baseline model name.
     effects : tuple of str
-        Effects kept, in the order they were added.
+        Physical effects kept, in the order they were added (measurement terms are not effects).
     steps : tuple of Step
+        The physical steps.
     candidates : tuple of Candidate
         Every candidate judged, every step (the runners-up are those not kept).
     baseline_fit : FitSummary
@@ -225,6 +262,16 @@ class DiscoveryResult:
     data : mapping
         Facts about the analysed record.
     runtime_s : float
+    measurement : tuple of str
+        Measurement terms kept (``offset``, ``angle_scale``): findings about the record, not
+        causes; they stay in the model while the effects are searched.
+    measurement_steps : tuple of Step
+    order : tuple of str
+        Every term of the final model beyond the baseline, in the order it was kept
+        (measurement terms and effects interleaved).
+    unexplained : tuple of str
+        Diagnostics still off after the final model
+        (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`): structure no term removed.
     """
 
     baseline: str
@@ -239,21 +286,32 @@ class DiscoveryResult:
     thresholds: Mapping[str, float]
     data: Mapping[str, Any] = field(default_factory=dict)
     runtime_s: float = 0.0
+    measurement: tuple[str, ...] = ()
+    measurement_steps: tuple[Step, ...] = ()
+    unexplained: tuple[str, ...] = ()
+    order: tuple[str, ...] = ()
 
     @property
     def runners_up(self) -> tuple[Candidate, ...]:
-        """Candidates judged but not kept, best held-out first within each step."""
-        kept = {(i + 1, s.effect) for i, s in enumerate(self.steps)}
-        rest = [c for c in self.candidates if (c.step, c.effect) not in kept]
-        return tuple(sorted(rest, key=lambda c: (c.step, -(c.heldout_gain if math.isfinite(c.heldout_gain) else -1e9))))
+        """Candidates judged but not kept (measurement first), best held-out first within each step."""
+        kept = {(s.kind, s.step or i + 1, s.effect) for steps in (self.measurement_steps, self.steps)
+                for i, s in enumerate(steps)}
+        rest = [c for c in self.candidates if (c.kind, c.step, c.effect) not in kept]
+        return tuple(sorted(rest, key=lambda c: (c.kind != "measurement", c.step,
+                                                 -(c.heldout_gain if math.isfinite(c.heldout_gain) else -1e9))))
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "baseline": self.baseline,
             "effects": list(self.effects),
             "steps": [s.to_dict() for s in self.steps],
+            "measurement": list(self.measurement),
+            "measurement_steps": [s.to_dict() for s in self.measurement_steps],
+            "unexplained": list(self.unexplained),
+            "order": list(self.order or (*self.measurement, *self.effects)),
             "diagnosis": _jsonable(self.diagnosis),
             "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.effects),
+                            "measurement_terms": list(self.measurement),
                             "heldout_rms": _num(self.final_heldout_rms)},
             "runners_up": [c.to_dict() for c in self.runners_up],
             "baseline_fit": {**self.baseline_fit.to_dict(), "heldout_rms": _num(self.baseline_heldout_rms)},

@@ -8,16 +8,19 @@
 
 from __future__ import annotations
 
+import itertools
+import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 from pendtrack.config import Config
 from pendtrack.discovery import catalogue as C
 from pendtrack.discovery.data import AnalysisData, prepare
-from pendtrack.discovery.diagnostics import Diagnosis, diagnose
+from pendtrack.discovery.diagnostics import Diagnosis, diagnose, off_diagnostics
 from pendtrack.discovery.inputs import AngleSeries
-from pendtrack.discovery.starts import scaled_starts
+from pendtrack.discovery.starts import combination_starts, measurement_starts, scaled_starts
 from pendtrack.discovery.result import Candidate, DiscoveryResult, Step
 from pendtrack.discovery.selection import (
     FitPair, FitTask, choose, fit_full, fit_pair, fit_train, judge, judge_heldout, make_executor, passes_heldout,
@@ -37,10 +40,129 @@ def diagnose_pair(pair: FitPair, data: AnalysisData, config: Config) -> Diagnosi
                     near_fraction=dc.near_turning_fraction)
 
 
+@dataclass(frozen=True, eq=False)
+class _Context:
+    """What every step of one discovery shares."""
+
+    data: AnalysisData
+    baseline: str
+    config: Config
+    executor: Any
+    tick: Callable[[int], None]
+
+    def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
+                 starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
+                 seed: int, hold: Sequence[bool] | None = None) -> tuple[list[Candidate], list[FitPair]]:
+        """Fit ``baseline + kept + option`` for every option and judge it against ``current``.
+
+        Every option is fitted on the training part and predicts the held-out part; only one
+        that passes the held-out test earns a whole-record fit (for BIC). ``hold[i]``: option i's
+        training fit holds the physics at the current model's training fit (it fits the new
+        terms' parameters and the initial state only).
+        The whole-record fit, for BIC, frees everything.
+        """
+        dc = self.config.discover
+        data = self.data
+        warm = warm_start(current)
+        common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
+        from pendtrack.models import MEASUREMENT_TERMS
+
+        meas_params = {p for name in MEASUREMENT_TERMS for p in MEASUREMENT_TERMS[name].params}
+        physics = {k: v for k, v in warm.items() if k not in ("theta0", "omega0") and k not in meas_params}
+        hold = list(hold) if hold is not None else [False] * len(options)
+        tasks = [FitTask(data, self.baseline, (*kept, *opt), warm, dc.n_starts, seed, extra_starts=tuple(st),
+                         fixed=physics if h else None, **common)
+                 for opt, st, h in zip(options, starts, hold)]
+        pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
+        again = [i for i, p in enumerate(pairs)
+                 if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
+                                   min_gain=dc.heldout_min_gain, heldout_rms=current.heldout_rms)]
+        refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=self.executor)
+        for i, p in zip(again, refits):
+            pairs[i] = p
+        judged = [judge(p, current, data, effect="+".join(opt), terms=tuple(opt), kind=kind, step=step, score=s,
+                        delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min,
+                        min_gain=dc.heldout_min_gain)
+                  for p, opt, s in zip(pairs, options, scores)]
+        return judged, pairs
+
+
+def _without(warm: dict[str, float], term: str) -> dict[str, float]:
+    """A warm start less one term's parameters."""
+    from pendtrack.models import CATALOGUE
+
+    drop = set(CATALOGUE[term].params)
+    return {k: v for k, v in warm.items() if k not in drop}
+
+
+def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *, kind: str,
+             step: int) -> tuple[Candidate, FitPair]:
+    """Does ``term`` still earn its keep in the model ``baseline + terms``?
+
+    The model without it is fitted (training part, then the whole record, warm-started from the
+    current fit less the term's parameters) and the current model is judged against it as if
+    the term were being added now, by the same held-out and BIC rules.
+    """
+    dc = ctx.config.discover
+    reduced_terms = tuple(t for t in terms if t != term)
+    task = FitTask(ctx.data, ctx.baseline, reduced_terms, _without(warm_start(current), term), dc.n_starts,
+                   dc.seed + 200 + step, cost=ctx.config.fit.cost, memory_s=ctx.config.models.memory_s)
+    reduced = fit_pair(task)
+    ctx.tick(1)
+    if reduced.error or reduced.full is None:  # the simpler model cannot be fitted: the term stays
+        return Candidate(term, step, 0.0, current.train, current.full, current.heldout_rms, math.inf, math.inf,
+                         -math.inf, True, True, terms=(term,), kind=kind), reduced
+    cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind=kind, step=step, score=0.0,
+                 delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
+    return cand, reduced
+
+
+def _step(best: Candidate, current: FitPair, pair: FitPair) -> Step:
+    assert current.full is not None and pair.full is not None
+    return Step(effect=best.effect, before=current.full, after=pair.full, heldout_rms_before=current.heldout_rms,
+                heldout_rms_after=pair.heldout_rms, heldout_z=best.heldout_z, delta_bic=best.delta_bic,
+                terms=best.names, kind=best.kind, step=best.step)
+
+
+def _combinations(singles: Sequence[Candidate], single_pairs: Sequence[FitPair], size: int,
+                  pool_size: int) -> list[tuple[str, ...]]:
+    """Combinations of ``size`` effects among the ``pool_size`` singles with the best held-out gain.
+
+    A single that could not be fitted does not enter. The order is that of the gains, so the
+    most promising combination is fitted first.
+    """
+    usable = [(c, p) for c, p in zip(singles, single_pairs) if p.train is not None and not c.error]
+    usable.sort(key=lambda cp: -(cp[0].heldout_gain if math.isfinite(cp[0].heldout_gain) else -1e9))
+    names = [c.effect for c, _ in usable[:pool_size]]
+    return [tuple(combo) for combo in itertools.combinations(names, size)]
+
+
 def discover(series: AngleSeries, *, config: Config, baseline: str | None = None,
-             effects: Sequence[str] | None = None,
+             effects: Sequence[str] | None = None, measurement: Sequence[str] | None = None,
              on_progress: Callable[[int], None] | None = None) -> DiscoveryResult:
     """Find what the baseline gets wrong, name the cause, extend the model, measure the gain.
+
+    1. Fit the baseline and diagnose it.
+    2. **Measurement** (``[discover] measurement``): at every round the measurement terms
+       (theta's zero offset, an angle-scale error) not yet kept are tried first, by the
+       held-out and BIC rules of :mod:`~pendtrack.discovery.selection`. A kept term enters the
+       observation, stays in every later model and is reported as a measurement finding, never
+       as a cause. (Tried again after each effect: on a record whose baseline dephases, the
+       held-out error is the dephasing's and hides an offset until the physics is better.)
+    3. **Effects**: when no measurement term earns its keep, forward selection over the
+       catalogue, one effect per round. When no single
+       effect earns its keep but the current model's residual still has structure
+       (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`), combinations of
+       ``max_combination`` effects among the ``combination_pool`` singles with the best
+       held-out gain are fitted and judged by the same rules (pairs first, then triples):
+       two effects that each alone cannot show their worth may do so together. Singles are
+       judged before pairs, so among nested alternatives the simplest that clears the rules
+       is kept.
+    4. **The simplest model**: every term kept before a term of the other kind (a measurement
+       term before an effect, an effect before a measurement term) is judged again in the
+       final model (the model without it against the model with it, same rules) and dropped if
+       it no longer earns its keep.
+    5. **What stays unexplained**: the final model's diagnostics still off.
 
     Parameters
     ----------
@@ -52,8 +174,10 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
         Baseline model; default ``config.discover.baseline``.
     effects : sequence of str, optional
         Restrict the catalogue; default ``config.discover.effects`` (empty: all).
+    measurement : sequence of str, optional
+        Measurement terms to try; default ``config.discover.measurement`` (empty: none).
     on_progress : callable, optional
-        Called with 1 after each fit pair (baseline, then every candidate).
+        Called with 1 after each candidate's training fit (and the baseline).
 
     Returns
     -------
@@ -62,7 +186,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     Raises
     ------
     ConfigError
-        Unknown baseline or effect.
+        Unknown baseline, effect or measurement term.
     FitError
         The record cannot support the analysis, or the baseline cannot be fitted.
     """
@@ -70,10 +194,12 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     dc = config.discover
     baseline = baseline or dc.baseline
     effects = tuple(dc.effects if effects is None else effects)
+    measurement = tuple(dc.measurement if measurement is None else measurement)
     from pendtrack.errors import ModelError
 
     try:
         pool = C.candidates(baseline, effects)
+        meas_pool = C.measurement_candidates(baseline, measurement)
     except ModelError as exc:
         from pendtrack.errors import ConfigError
 
@@ -89,74 +215,170 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     if base.error or base.full is None:
         raise FitError(f"baseline model '{baseline}' could not be fitted: {base.error}", path=series.source)
     diag_base = diagnose_pair(base, data, config)
-    timing = {"baseline_s": time.perf_counter() - t_wall, "steps_s": []}
+    timing: dict[str, Any] = {"baseline_s": time.perf_counter() - t_wall, "measurement_s": 0.0, "steps_s": []}
     diag_current = diag_base
     rankings: list[list[dict[str, Any]]] = []
-    current, accepted = base, []
+    current = base
+    accepted: list[str] = []
+    meas_kept: list[str] = []
     steps: list[Step] = []
+    meas_steps: list[Step] = []
     judged_all: list[Candidate] = []
-    executor = make_executor(worker_count(workers, len(pool)))
+    diag_measured: Diagnosis | None = None
+    order: list[str] = []  # every term kept, in the order it was kept
+    executor = make_executor(worker_count(workers, max(len(pool), len(meas_pool), 1)))
+    ctx = _Context(data, baseline, config, executor, tick)
     try:
-        for step in range(1, dc.max_effects + 1):
-            remaining = [e for e in pool if e.name not in accepted]
-            if not remaining:
+        step = mstep = 0
+        banned: set[str] = set()  # terms dropped by the final check: not tried again
+        confirmed: dict[str, tuple[str, ...]] = {}  # term -> the model (its terms) the final check kept it in
+        while True:
+            while True:
+                # 1. the measurement first, at every round: what the record's angle is, before what the
+                # pendulum does (a term the baseline's own errors hid may show once the physics is better)
+                t_meas = time.perf_counter()
+                remaining_m = [a for a in meas_pool if a.name not in meas_kept and a.name not in banned]
+                best = None
+                if remaining_m:
+                    mstep += 1
+                    # each term twice: its training fit with the physics freed, and with the physics held
+                    # at the current fit (judged by what it does to the observation alone). Freed, the
+                    # physics can bend on the training part: on lab1, whose theta zero drifts (12.9 mrad
+                    # early, 7.3 late), it bent to the drift and extrapolated 5.7 mrad worse, so only the
+                    # held fit shows the offset; held, it cannot undo what a strong scale error made it
+                    # (the synthetic angle-scale runs: 0 of 4 found held). Same rules for both; a z > 3
+                    # gate per candidate, as in any step with several candidates.
+                    n_m = len(remaining_m)
+                    starts = [measurement_starts(a.name, warm_start(current), data, current.prediction)
+                              for a in remaining_m]
+                    judged, pairs = ctx.evaluate(current, (*meas_kept, *accepted), [(a.name,) for a in remaining_m] * 2,
+                                                 starts * 2, [0.0] * n_m + [1.0] * n_m, step=mstep,
+                                                 kind="measurement", seed=dc.seed + 100 + mstep,
+                                                 hold=[False] * n_m + [True] * n_m)
+                    judged_all.extend(judged)
+                    best = choose(judged)
+                    if best is not None:
+                        pair = pairs[judged.index(best)]
+                        meas_steps.append(_step(best, current, pair))
+                        meas_kept.extend(best.names)
+                        order.extend(best.names)
+                        current = pair
+                        diag_current = diagnose_pair(current, data, config)
+                        if not accepted:
+                            diag_measured = diag_current
+                timing["measurement_s"] += time.perf_counter() - t_meas
+                if best is not None:
+                    continue
+
+                # 2. the physics, the measurement terms kept in every model
+                remaining = [e for e in pool if e.name not in accepted and e.name not in banned]
+                if not remaining or len(accepted) >= dc.max_effects:
+                    break
+                step += 1
+                t_step = time.perf_counter()
+                kept = (*meas_kept, *accepted)
+                ranked = C.rank(remaining, diag_current.evidence)
+                rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
+                                 for e, s in ranked])
+                warm = warm_start(current)
+                scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
+                          for e, _ in ranked}
+                judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
+                                             [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
+                                             step=step, kind="effect", seed=dc.seed + step)
+                judged_all.extend(judged)
+                best = choose(judged)
+                chosen_pairs, chosen_judged = pairs, judged
+                # effects in combination: none alone earns its keep, yet the residual has structure
+                size = 2
+                while (best is None and size <= dc.max_combination and size <= len(remaining)
+                       and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
+                    combos = _combinations(judged, pairs, size, dc.combination_pool)
+                    if not combos:
+                        break
+                    singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
+                    starts = [combination_starts(combo, singles, scaled) for combo in combos]
+                    scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
+                    chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
+                                                               kind="effect", seed=dc.seed + 10 * step + size)
+                    judged_all.extend(chosen_judged)
+                    best = choose(chosen_judged)
+                    size += 1
+                timing["steps_s"].append(time.perf_counter() - t_step)
+                if best is None:
+                    break
+                pair = chosen_pairs[chosen_judged.index(best)]
+                steps.append(_step(best, current, pair))
+                accepted.extend(best.names)
+                order.extend(best.names)
+                current = pair
+                diag_current = diagnose_pair(current, data, config)
+
+            # 3. the simplest model: a term kept before a term of the other kind must still earn its keep
+            # in the final model -- a measurement term kept against a poor fit (a baseline that slipped a
+            # phase) may have absorbed what an effect explains, an effect kept while theta's zero was
+            # wrong may have bent to absorb the offset. One that does not is dropped, by the same rules.
+            dropped = []
+            for term in [t for i, t in enumerate(order)
+                         if any((u in meas_kept) != (t in meas_kept) for u in order[i + 1:])][::-1]:
+                kind = "measurement" if term in meas_kept else "effect"
+                model_terms = tuple(sorted(order))
+                if confirmed.get(term) == model_terms:  # already judged in this very model
+                    continue
+                cand, reduced = _recheck(ctx, current, (*meas_kept, *accepted), term, kind=kind,
+                                         step=(len(meas_steps) if kind == "measurement" else len(steps)) + 1)
+                if cand.earns_keep:
+                    confirmed[term] = model_terms
+                    continue
+                judged_all.append(replace(cand, step=0, note="kept first, dropped at the end: in the final model "
+                                          "it no longer earns its keep (" + cand.reason() + ")"))
+                if kind == "measurement":
+                    meas_kept.remove(term)
+                    meas_steps = [s for s in meas_steps if term not in s.names]
+                else:
+                    accepted.remove(term)
+                    steps = [s for s in steps if term not in s.names]
+                order.remove(term)
+                current = reduced
+                diag_current = diagnose_pair(current, data, config)
+                dropped.append(term)
+            if not dropped:
                 break
-            t_step = time.perf_counter()
-            ranked = C.rank(remaining, diag_current.evidence)
-            rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
-                             for e, s in ranked])
-            warm = warm_start(current)
-            tasks = [FitTask(data, baseline, (*accepted, e.name), warm, dc.n_starts, dc.seed + step,
-                             extra_starts=tuple(scaled_starts(baseline, accepted, e.name, warm, data,
-                                                              memory_s=config.models.memory_s)), **common)
-                     for e, _ in ranked]
-            pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=tick, executor=executor)
-            # only a candidate that predicts the held-out part better earns a whole-record fit (for BIC)
-            again = [i for i, p in enumerate(pairs)
-                     if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
-                                       min_gain=dc.heldout_min_gain, heldout_rms=current.heldout_rms)]
-            refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=executor)
-            for i, p in zip(again, refits):
-                pairs[i] = p
-            judged = [judge(p, current, data, effect=e.name, step=step, score=s, delta_bic_max=dc.delta_bic_max,
-                            heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
-                      for p, (e, s) in zip(pairs, ranked)]
-            judged_all.extend(judged)
-            timing["steps_s"].append(time.perf_counter() - t_step)
-            best = choose(judged)
-            if best is None:
-                break
-            pair = pairs[judged.index(best)]
-            steps.append(Step(effect=best.effect, before=current.full, after=pair.full,
-                              heldout_rms_before=current.heldout_rms, heldout_rms_after=pair.heldout_rms,
-                              heldout_z=best.heldout_z, delta_bic=best.delta_bic))
-            accepted.append(best.effect)
-            current = pair
-            diag_current = diagnose_pair(current, data, config)
+            banned.update(dropped)  # the search goes on without them (each round bans one more: it ends)
+        if not meas_kept:
+            diag_measured = None
     finally:
         if executor is not None:
             executor.shutdown()
 
-    diagnosis = _diagnosis_record(baseline, pool, diag_base, diag_current if steps else None, rankings, accepted)
+    diag_final = diag_current if (steps or meas_steps) else None
+    unexplained = tuple(off_diagnostics(diag_current.evidence))
+    diagnosis = _diagnosis_record(baseline, pool, diag_base, diag_final, rankings, accepted,
+                                  measured=diag_measured, meas_pool=meas_pool)
     thresholds = {"delta_bic_max": dc.delta_bic_max, "heldout_z_min": dc.heldout_z_min,
                   "heldout_min_gain": dc.heldout_min_gain,
-                  "train_fraction": dc.train_fraction}
+                  "train_fraction": dc.train_fraction, "max_combination": dc.max_combination,
+                  "combination_pool": dc.combination_pool}
     return DiscoveryResult(baseline=baseline, effects=tuple(accepted), steps=tuple(steps),
                            candidates=tuple(judged_all), baseline_fit=base.full,
                            baseline_heldout_rms=base.heldout_rms, final_fit=current.full,
                            final_heldout_rms=current.heldout_rms, diagnosis=diagnosis, thresholds=thresholds,
                            data={**series.to_dict(), "analysis": data.to_dict(), "timing": timing},
-                           runtime_s=time.perf_counter() - t_wall)
+                           runtime_s=time.perf_counter() - t_wall, measurement=tuple(meas_kept),
+                           measurement_steps=tuple(meas_steps), unexplained=unexplained, order=tuple(order))
 
 
 def _diagnosis_record(baseline: str, pool: Sequence[C.Effect], diag_base: Diagnosis, diag_final: Diagnosis | None,
-                      rankings: list[list[dict[str, Any]]], accepted: list[str]) -> dict[str, Any]:
+                      rankings: list[list[dict[str, Any]]], accepted: list[str], *,
+                      measured: Diagnosis | None = None, meas_pool: Sequence[C.Artefact] = ()) -> dict[str, Any]:
     first = rankings[0] if rankings else []
     top = first[0]["effect"] if first else None
     cause = accepted[0] if accepted else None
     return {
         "baseline": diag_base.to_dict(),
         "final": diag_final.to_dict() if diag_final is not None else None,
+        "measured": measured.to_dict() if measured is not None else None,
+        "measurement_catalogue": {a.name: a.to_dict() for a in meas_pool},
         "evidence": dict(diag_base.evidence),
         "ranking": first,
         "rankings_by_step": rankings,

@@ -112,6 +112,7 @@ class FitTask:
     memory_s: float
     workers: int = 1
     extra_starts: tuple[dict[str, float], ...] = ()  # further complete starts (best training cost wins)
+    fixed: dict[str, float] | None = None  # parameters held in the training fit (a measurement term's physics)
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,10 +152,13 @@ def _model(baseline: str, extra: Sequence[str]):  # noqa: ANN202
 
 def _simulate(model, summary: FitSummary, t: np.ndarray,  # noqa: ANN001
               memory_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fitted model as the camera sees it: angle [rad] and angular velocity [rad/s] through its
+    measurement terms (:meth:`pendtrack.models.Model.observe_state`; the identity without them)."""
     from pendtrack.models import simulate
 
     sim = simulate(model, summary.values, t, theta0=summary.theta0, omega0=summary.omega0, memory_s=memory_s)
-    return np.asarray(sim.theta), np.asarray(sim.omega)
+    theta, omega = model.observe_state(np.asarray(sim.theta), np.asarray(sim.omega), summary.values)
+    return np.asarray(theta), np.asarray(omega)
 
 
 def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
@@ -181,7 +185,7 @@ def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
 
 
 def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
-    """One fit by :func:`pendtrack.fitting.fit_model` with :func:`fit_options`: the training part or the whole record."""
+    """One fit by :func:`pendtrack.fitting.fit_model` with :func:`fit_options`: training part or whole record."""
     from pendtrack.fitting import Observation, fit_model
 
     t_wall = time.perf_counter()
@@ -191,6 +195,7 @@ def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
     options, model_options = fit_options(task, full=full)
     fit = fit_model(model, d.t, d.theta, d.omega, options=options, model_options=model_options, alpha=d.alpha,
                     window=None if full else d.train_window, observation=obs, initial=task.initial,
+                    fixed=None if full else task.fixed,
                     extra_starts=() if full else task.extra_starts, seed=task.seed, workers=task.workers,
                     source=d.source)
     log.debug("fit %s (%s): xi2 %.6g rms %.6g in %.1f s", model.name, "whole" if full else "train",
@@ -326,26 +331,33 @@ def passes_heldout(gain: float, z: float, heldout_z_min: float, *, min_gain: flo
 
 
 def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, step: int, score: float,
-          delta_bic_max: float, heldout_z_min: float, min_gain: float = 0.0) -> Candidate:
+          delta_bic_max: float, heldout_z_min: float, min_gain: float = 0.0, terms: tuple[str, ...] = (),
+          kind: str = "effect") -> Candidate:
     """Compare a fitted candidate with the current model: the two tests of the module docstring.
 
-    A candidate without a whole-record fit (it failed the held-out test, so it was not
-    refitted) has ``delta_bic = NaN``.
+    The same tests judge a measurement term, a single effect and a combination of effects
+    (``terms``; its parameters are all paid for in BIC). A candidate without a whole-record
+    fit (it failed the held-out test, so it was not refitted) has ``delta_bic = NaN``.
     """
     if pair.error or pair.train is None or current.full is None:
         return Candidate(effect, step, score, pair.train, pair.full, math.inf, -math.inf, -math.inf, math.nan,
-                         False, False, error=pair.error or "fit failed")
+                         False, False, error=pair.error or "fit failed", terms=terms, kind=kind)
     gain, z = judge_heldout(pair, current, data)
     dbic = pair.full.bic - current.full.bic if pair.full is not None else math.nan
     return Candidate(effect=effect, step=step, signature_score=score, train=pair.train, full=pair.full,
                      heldout_rms=pair.heldout_rms, heldout_gain=gain, heldout_z=z, delta_bic=dbic,
                      passes_bic=bool(dbic < delta_bic_max),
                      passes_heldout=passes_heldout(gain, z, heldout_z_min, min_gain=min_gain,
-                                                   heldout_rms=current.heldout_rms))
+                                                   heldout_rms=current.heldout_rms), terms=terms, kind=kind)
 
 
 def choose(cands: Iterable[Candidate]) -> Candidate | None:
-    """The candidate that earns its keep with the lowest BIC, or None."""
+    """The candidate that earns its keep with the lowest BIC, or None.
+
+    Candidates of one call add the same number of terms (singles, or pairs): the simplest
+    models are judged first (:func:`pendtrack.discovery.search.discover`), so among nested
+    alternatives that clear the rules the one with fewer terms is kept.
+    """
     ok = [c for c in cands if c.earns_keep]
     return min(ok, key=lambda c: c.delta_bic) if ok else None
 

@@ -90,3 +90,72 @@ def scaled_starts(baseline: str, accepted: Sequence[str], effect: str, warm: Map
             out.append({**warm, **shape, coef: TINY * scale / size})
         out.append({**warm, **shape, coef: SHARE * scale / size})
     return out
+
+
+def measurement_starts(term: str, warm: Mapping[str, float], data: AnalysisData,
+                       prediction: np.ndarray) -> list[dict[str, float]]:
+    """Starts for ``current + term`` with a measurement term: the current fit plus the term at
+    0 (the current optimum: nested models) and at its least-squares size on the current
+    model's training residual (data-derived, never a truth).
+
+    ``offset``: ``theta_off`` = the residual's mean; ``angle_scale``: ``k_scale`` = the
+    regression of the residual on ``prediction^3`` (``theta (1 + k theta^2) - theta = k theta^3``).
+
+    Parameters
+    ----------
+    term : str
+        ``"offset"`` or ``"angle_scale"`` (others: no starts).
+    warm : mapping
+        The current model's training fit (parameters and ``theta0``/``omega0``).
+    data : AnalysisData
+    prediction : ndarray
+        The current training fit's observed angle over the record [rad].
+    """
+    keep = ~data.heldout & np.isfinite(prediction)
+    if np.count_nonzero(keep) < 10:
+        return []
+    r = data.theta[keep] - prediction[keep]
+    if term == "offset":
+        return [{**warm, "theta_off": 0.0}, {**warm, "theta_off": float(np.mean(r))}]
+    if term == "angle_scale":
+        th3 = prediction[keep] ** 3
+        den = float(np.sum(th3 * th3))
+        k = float(np.sum(r * th3) / den) if den > 0 else 0.0
+        return [{**warm, "k_scale": 0.0}, {**warm, "k_scale": k}]
+    return []
+
+
+def combination_starts(terms: Sequence[str], singles: Mapping[str, Mapping[str, float]],
+                       scaled: Mapping[str, Sequence[Mapping[str, float]]]) -> list[dict[str, float]]:
+    """Starts for a combination of effects: each single effect's training fit, with the other
+    effects' terms at their scaled starts (:func:`scaled_starts`, the :data:`SHARE` one).
+
+    Parameters
+    ----------
+    terms : sequence of str
+        The effects combined.
+    singles : mapping
+        Effect -> its single training fit (``warm_start`` of it: parameters, ``theta0``,
+        ``omega0``); missing when it could not be fitted.
+    scaled : mapping
+        Effect -> its scaled starts on the current model (complete dicts).
+    """
+    from pendtrack.models import CATALOGUE
+
+    out = []
+    for a in terms:
+        if a not in singles:
+            continue
+        start = dict(singles[a])
+        complete = True
+        for b in terms:
+            if b == a:
+                continue
+            if not scaled.get(b):
+                complete = False
+                break
+            src = scaled[b][-1]
+            start.update({p: float(src[p]) for p in CATALOGUE[b].params})
+        if complete:
+            out.append(start)
+    return out

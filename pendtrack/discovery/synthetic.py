@@ -1,9 +1,10 @@
 """Synthetic runs with a hidden effect, for tests and benchmarks of discovery.
 
 A run is the ``standard`` model (gravity, Coulomb, viscous and quadratic drag, damping in
-realistic ranges) released near the top, plus at most one hidden effect of realistic size,
-simulated with :func:`pendtrack.models.simulate` and observed with seeded white noise. The
-tool under test receives only ``t`` and ``theta``.
+realistic ranges) released near the top, plus none, one or two hidden effects of realistic
+size, simulated with :func:`pendtrack.models.simulate`, observed through at most one
+measurement artefact (theta's zero offset by 5-15 mrad, or an angle scale wrong by 5-15 % at
+2.5 rad) and seeded white noise. The tool under test receives only ``t`` and ``theta``.
 
 Effect sizes: ``Ca`` in [0.01, 0.03] (the paper's classic fits); memory with ``beta`` in
 [0.3, 0.7]; time-varying damping with ``C4`` and ``t0`` around the paper's OPA fit
@@ -20,8 +21,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 HIDDEN_EFFECTS = ("added_mass", "time_varying_damping", "memory")
+#: Every pair of hidden effects (a run may carry two).
+HIDDEN_PAIRS = tuple((a, b) for i, a in enumerate(HIDDEN_EFFECTS) for b in HIDDEN_EFFECTS[i + 1:])
+#: Measurement artefacts a clean run may carry (terms of :data:`pendtrack.models.MEASUREMENT_TERMS`).
+ARTEFACTS = ("offset", "angle_scale")
 MIN_EXCESS = 1.2  # the standard fit's residual RMS must exceed the noise by this factor
 RATE_HZ = 120.0
+OFFSET_MRAD = (5.0, 15.0)  # |theta_off| of an offset run [mrad]: a vertical misjudged by 0.3-0.9 degrees
+SCALE_ERROR = (0.05, 0.15)  # |k_scale| (2.5 rad)^2 of an angle-scale run: theta wrong by 5-15 % at 2.5 rad
+SCALE_AT = 2.5  # [rad]
+SCALE_RELEASE = 2.6  # largest release of an angle-scale run [rad]
+SIZE_CHECKED = ("memory", "time_varying_damping")  # effects redrawn until a standard fit cannot absorb them
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,9 +43,9 @@ class SyntheticRun:
     t, theta : ndarray
         Times [s] and noisy angle [rad] (what the tool gets).
     effect : str or None
-        The hidden effect (None for a control).
+        The (first) hidden effect (None for a control).
     params : dict
-        True parameters of ``standard`` (+ effect).
+        True parameters of ``standard`` (+ effects, + measurement term).
     theta0 : float
         Release angle [rad].
     noise : float
@@ -44,6 +54,12 @@ class SyntheticRun:
         Standard-fit residual RMS over the noise (NaN if not checked).
     draws : int
         Draws needed to satisfy the size condition.
+    effects : tuple of str
+        Every hidden effect (one or two; empty for a control).
+    measurement : str or None
+        The measurement artefact the observation carries (``offset``, ``angle_scale``) or None.
+    rate_hz : float
+        Sampling rate [1/s].
     """
 
     t: np.ndarray
@@ -54,26 +70,52 @@ class SyntheticRun:
     noise: float = 0.0
     excess: float = float("nan")
     draws: int = 1
+    effects: tuple[str, ...] = ()
+    measurement: str | None = None
+    rate_hz: float = RATE_HZ
 
 
-def _draw_params(rng: np.random.Generator, effect: str | None) -> dict[str, float]:
+def _draw_params(rng: np.random.Generator, effect: str | None | tuple[str, ...]) -> dict[str, float]:
     p = {"Omega0": rng.uniform(5.0, 6.5), "C1": rng.uniform(0.01, 0.03), "C0": rng.uniform(0.005, 0.02),
          "C2": rng.uniform(0.002, 0.006)}
-    if effect == "added_mass":
-        p["Ca"] = rng.uniform(0.01, 0.03)
-    elif effect == "time_varying_damping":
-        p["C4"] = rng.uniform(0.3, 1.5)
-        p["t0"] = -rng.uniform(3.0, 12.0)
-    elif effect == "memory":
-        p["beta"] = rng.uniform(0.3, 0.7)
-        p["p_f"] = rng.uniform(1.0, 2.0)
-        p["G2"] = math.exp(rng.uniform(math.log(2e-3), math.log(1.5e-2)))
+    for e in _as_tuple(effect):
+        p.update(_draw_effect(rng, e))
     return p
 
 
-def simulate_run(params: dict[str, float], effect: str | None, *, duration: float, theta0: float, noise: float,
-                 rng: np.random.Generator, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
-    """``standard`` (+ effect) from rest at ``theta0``, sampled at ``rate_hz``, plus white noise.
+def _draw_effect(rng: np.random.Generator, effect: str) -> dict[str, float]:
+    if effect == "added_mass":
+        return {"Ca": rng.uniform(0.01, 0.03)}
+    if effect == "time_varying_damping":
+        return {"C4": rng.uniform(0.3, 1.5), "t0": -rng.uniform(3.0, 12.0)}
+    if effect == "memory":
+        return {"beta": rng.uniform(0.3, 0.7), "p_f": rng.uniform(1.0, 2.0),
+                "G2": math.exp(rng.uniform(math.log(2e-3), math.log(1.5e-2)))}
+    return {}
+
+
+def _draw_artefact(rng: np.random.Generator, artefact: str | None) -> dict[str, float]:
+    if artefact is None:
+        return {}  # no draw: the runs without an artefact keep the random stream they always had
+    sign = 1.0 if rng.uniform() < 0.5 else -1.0
+    if artefact == "offset":
+        return {"theta_off": sign * 1e-3 * rng.uniform(*OFFSET_MRAD)}
+    if artefact == "angle_scale":
+        return {"k_scale": sign * rng.uniform(*SCALE_ERROR) / SCALE_AT**2}
+    return {}
+
+
+def _as_tuple(effect: str | None | tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    if effect is None:
+        return ()
+    return (effect,) if isinstance(effect, str) else tuple(effect)
+
+
+def simulate_run(params: dict[str, float], effect: str | None | tuple[str, ...], *, duration: float, theta0: float,
+                 noise: float, rng: np.random.Generator, rate_hz: float = RATE_HZ,
+                 measurement: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``standard`` (+ effects) from rest at ``theta0``, sampled at ``rate_hz``, observed through the
+    measurement term (if any), plus white noise.
 
     Returns
     -------
@@ -82,11 +124,17 @@ def simulate_run(params: dict[str, float], effect: str | None, *, duration: floa
     """
     from pendtrack.models import compose, get_model, simulate
 
-    model = compose("standard", [effect]) if effect else get_model("standard")
+    effects = _as_tuple(effect)
+    model = compose("standard", list(effects)) if effects else get_model("standard")
     t = np.arange(int(round(duration * rate_hz))) / rate_hz
-    sim = simulate(model, params, t, theta0=theta0, omega0=0.0)
-    return t, np.asarray(sim.theta) + rng.normal(0.0, noise, t.size)
-
+    physical = {k: v for k, v in params.items() if k in model.param_names}
+    sim = simulate(model, physical, t, theta0=theta0, omega0=0.0)
+    theta = np.asarray(sim.theta)
+    if measurement:
+        seen = compose(model, [measurement])
+        theta = np.asarray(seen.observe(theta, {**physical, **{k: params[k] for k in seen.param_names
+                                                               if k not in physical}}))
+    return t, theta + rng.normal(0.0, noise, t.size)
 
 def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
     """Residual RMS of a whole-record output-error fit of ``standard``, over the noise [1]."""
@@ -106,34 +154,66 @@ def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
     return float(np.sqrt(np.mean(r * r)) / noise)
 
 
-def draw_run(seed: int, effect: str | None, *, check_size: bool = True, max_draws: int = 20) -> SyntheticRun:
-    """A synthetic run carrying ``effect`` (or none), drawn from ``seed``.
+def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: bool = True, max_draws: int = 20,
+             measurement: str | None = None, rate_hz: float = RATE_HZ,
+             duration: tuple[float, float] = (60.0, 90.0),
+             noise: tuple[float, float] = (0.002, 0.004)) -> SyntheticRun:
+    """A synthetic run carrying ``effect`` (one, a pair, or none), drawn from ``seed``.
 
     Parameters
     ----------
     seed : int
         Everything (duration, release, noise, parameters) is drawn from it.
-    effect : str or None
-        One of :data:`HIDDEN_EFFECTS`, or None for a control.
+    effect : str, tuple of str or None
+        One of :data:`HIDDEN_EFFECTS`, a pair of them (:data:`HIDDEN_PAIRS`), or None for a control.
     check_size : bool
-        For memory and time-varying damping: redraw the effect's parameters until a
-        standard fit's residual RMS exceeds the noise by :data:`MIN_EXCESS`.
+        For memory and time-varying damping: redraw the effects' parameters until a standard
+        fit's residual RMS exceeds the noise by :data:`MIN_EXCESS`, on the run and (for a pair)
+        on the run with that effect alone: each effect of a pair must be a hidden effect on its own.
     max_draws : int
         Give up (``RuntimeError``) after this many draws.
+    measurement : str, optional
+        A measurement artefact (:data:`ARTEFACTS`) of the size :data:`OFFSET_MRAD` /
+        :data:`SCALE_ERROR`, sign drawn.
+    rate_hz : float
+        Sampling rate [1/s].
+    duration, noise : (float, float)
+        Ranges the record's length [s] and noise standard deviation [rad] are drawn from.
     """
-    if effect is not None and effect not in HIDDEN_EFFECTS:
-        raise ValueError(f"unknown hidden effect {effect!r}")
+    effects = _as_tuple(effect)
+    for e in effects:
+        if e not in HIDDEN_EFFECTS:
+            raise ValueError(f"unknown hidden effect {e!r}")
+    if measurement is not None and measurement not in ARTEFACTS:
+        raise ValueError(f"unknown measurement artefact {measurement!r}")
     rng = np.random.default_rng(seed)
-    duration = rng.uniform(60.0, 90.0)
+    dur = rng.uniform(*duration)
     theta0 = rng.uniform(2.6, 3.0)
-    noise = rng.uniform(0.002, 0.004)
+    sd = rng.uniform(*noise)
+    artefact = _draw_artefact(rng, measurement)
+    if "k_scale" in artefact:
+        # a camera measures angles within (-pi, pi]: released from SCALE_RELEASE at most, a swing stretched
+        # by 15 % at 2.5 rad stays below 3.03 rad
+        theta0 = min(theta0, SCALE_RELEASE)
     for draw in range(1, max_draws + 1):
-        params = _draw_params(rng, effect)
-        t, theta = simulate_run(params, effect, duration=duration, theta0=theta0, noise=noise, rng=rng)
+        params = {**_draw_params(rng, effects), **artefact}
+        # a pair's noise has its own seed, so that each effect alone can be simulated with the same noise;
+        # the other runs draw it from the main stream (the single-effect cases as they always were)
+        noise_seed = int(rng.integers(0, 2**31 - 1)) if len(effects) > 1 else None
+        t, theta = simulate_run(params, effects, duration=dur, theta0=theta0, noise=sd,
+                                rng=rng if noise_seed is None else np.random.default_rng(noise_seed),
+                                rate_hz=rate_hz, measurement=measurement)
         excess = float("nan")
-        if check_size and effect in ("memory", "time_varying_damping"):
-            excess = standard_excess(t, theta, noise)
+        if check_size and any(e in SIZE_CHECKED for e in effects):
+            excess = standard_excess(t, theta, sd)
             if excess < MIN_EXCESS:
                 continue
-        return SyntheticRun(t, theta, effect, params, theta0, noise, excess, draw)
-    raise RuntimeError(f"no {effect} run of detectable size in {max_draws} draws (seed {seed})")
+            if len(effects) > 1 and not all(
+                    standard_excess(*simulate_run(params, (e,), duration=dur, theta0=theta0, noise=sd,
+                                                  rng=np.random.default_rng(noise_seed), rate_hz=rate_hz,
+                                                  measurement=measurement), sd) >= MIN_EXCESS
+                    for e in effects if e in SIZE_CHECKED):
+                continue
+        return SyntheticRun(t, theta, effects[0] if effects else None, params, theta0, sd, excess, draw,
+                            effects=effects, measurement=measurement, rate_hz=rate_hz)
+    raise RuntimeError(f"no {effects} run of detectable size in {max_draws} draws (seed {seed})")

@@ -113,6 +113,12 @@ def discovery_section(run: RunData) -> Section:
     facts = [("baseline model", str(d.get("baseline", ""))),
              ("effects added", ", ".join(map(str, effects)) if isinstance(effects, list) and effects else "none"),
              ("discovered model", _model_name(final))]
+    measurement = d.get("measurement")
+    if isinstance(measurement, list) and measurement:  # measurement findings (issue #14): not causes
+        facts.append(("measurement findings", ", ".join(map(str, measurement))))
+    unexplained = d.get("unexplained")
+    if isinstance(unexplained, list) and unexplained:
+        facts.append(("not explained by the catalogue", ", ".join(map(str, unexplained))))
     if isinstance(final, Mapping):
         if (v := _mrad(final.get("rms"))) is not None:
             facts.append(("its RMS", f"{v:.3g} mrad"))

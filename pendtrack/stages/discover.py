@@ -109,16 +109,22 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
         record = json.loads(paths[0].read_text(encoding="utf-8"))
         return StageOutput(paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
 
-    total = 1 + len(pool) * max(1, min(dc.max_effects, len(pool)))
+    meas = catalogue.measurement_candidates(dc.baseline, dc.measurement)
+    # an estimate (the bar may end early or run over): the baseline, the measurement terms, the steps' singles
+    total = 1 + len(meas) + len(pool) * max(1, min(dc.max_effects, len(pool)))
     with progress_bar(total, "discover", enabled=progress) as advance:
         result = discover(series, config=config, on_progress=advance)
     record = result.to_dict()
     facts = {"source": str(source), "analysed": str(analysed), "baseline": result.baseline,
-             "effects": list(result.effects), "baseline_rms": result.baseline_fit.rms,
+             "effects": list(result.effects), "measurement": list(result.measurement),
+             "unexplained": list(result.unexplained), "baseline_rms": result.baseline_fit.rms,
              "baseline_heldout_rms": result.baseline_heldout_rms, "final_rms": result.final_fit.rms,
              "final_heldout_rms": result.final_heldout_rms, "runtime_s": result.runtime_s, "input": rec.info}
     prov = Provenance(stage="discover", config=sections, inputs=inputs, extra=facts)
     text = write_markdown(result)
-    write_json_artifact(record, paths[0], required=DISCOVERY_JSON_KEYS, provenance=prov)
+    # measurement and unexplained (issue #14) are required of what this stage writes; readers of older
+    # records ask only for DISCOVERY_JSON_KEYS
+    write_json_artifact(record, paths[0], required=(*DISCOVERY_JSON_KEYS, "measurement", "unexplained"),
+                        provenance=prov)
     atomic_write(paths[1], lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
     return StageOutput(paths, facts=facts)
