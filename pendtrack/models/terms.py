@@ -115,7 +115,7 @@ def _power_drag_d(w, c):  # noqa: ANN001, ANN201
     x = w * scale
     y = x ** exponent
     # d/dexponent: y ln x, written y ln max(x, tiny) so that it is 0 (not 0 * -inf) at w = 0
-    return (amp * exponent * scale * x ** (exponent - 1.0),
+    return (amp * exponent * scale * np.power(x, exponent - 1.0),  # np.power: inf, not an exception, at 0
             (y, amp * y * np.log(np.maximum(x, 1e-300)), amp * exponent * y / scale))
 
 
