@@ -310,13 +310,12 @@ def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
     a = smooth(theta, np.sin(theta), omega, 0.0, tuple(c.tolist()))
     np.testing.assert_allclose(a, -4.0 * np.sin(theta) - 3.0 * theta, rtol=1e-15)
     # its derivative formula enters the sensitivity kernel's fold the same way
-    grad = kernels._grad_smooth_add(kernels._grad_smooth_add(kernels._grad_smooth_seed, T.BASE.dfn,
-                                                             *lay.span(T.BASE), always=True),
+    grad = kernels._grad_smooth_add(kernels._grad_smooth_add(None, T.BASE.dfn, *lay.span(T.BASE), always=True),
                                     extra.dfn, *lay.span(extra))
-    fc = np.zeros(lay.size)
-    a_th, a_om = grad(theta[0], np.sin(theta[0]), np.cos(theta[0]), omega[0], 0.0, tuple(c.tolist()), fc)
+    k, kn = tuple(c.tolist()), (0.0,) * lay.size
+    a_th, a_om, dcs = grad(theta[0], np.sin(theta[0]), np.cos(theta[0]), omega[0], 0.0, k, kn)
     assert a_th == pytest.approx(-4.0 * np.cos(theta[0]) - 3.0, rel=1e-15) and a_om == 0.0
-    assert fc[lay.index["SPRING"]] == -theta[0] and fc[lay.index["SIN"]] == -np.sin(theta[0])
+    assert dcs == (-np.sin(theta[0]), -theta[0], -theta[0])  # by SIN, LIN, then SPRING
     with pytest.raises(ValueError, match="needs its derivative dfn"):
         Term("bad", "smooth", extra.specs, "", "", slots=(Slot("BAD"),), pack=extra.pack, fn=extra.fn)
 

@@ -131,78 +131,109 @@ _ACCEL_SMOOTH, _FRICTION_PAIR, _FOLDED = _fold(tuple(T.TERMS.values()))
 
 
 # --- their partial derivatives, folded from the declared Term.dfn the same way ------------
-# grad_smooth(theta, st, ct, omega, t, k, fc) -> (d alpha_smooth/d theta, d alpha_smooth/d omega)
-# and writes d alpha/d c into fc[lo:hi] of every smooth term; grad_friction(w, s, k, fc) ->
-# sum of dm/dw of the friction terms present, and writes -s dm/dc into their slots of fc.
+# grad_smooth(theta, st, ct, omega, t, k, kn) -> (d alpha_smooth/d theta, d alpha_smooth/d omega,
+# dcs) with dcs the tuple of d alpha/d c over the smooth slots (in GRAD_SLOTS order);
+# grad_friction(w, k, kn) -> (sum of dm/dw, dcf) with dcf the tuple of dm/dc over the friction
+# slots. Tuples, not an output array: the folds then pass only scalars, as the value folds do.
 # A term whose first slot is 0 (absent, unless ``always``) adds nothing to the theta/omega
-# partials, but its slot derivatives are written all the same: at C3 = 0 the derivative by C3
-# is not 0 (a fit may sit on that bound).
+# partials and is not evaluated (its slot derivatives are 0) -- unless ``kn[lo]`` is non-zero
+# (``kn``: 1 at the differentiated slots): at C3 = 0 the derivative by C3 is not 0, and a fit may
+# sit on that bound. Its other slots' derivatives are then 0 as given, every term's
+# contribution being proportional to its first slot (pendtrack.models.declare).
 
 def _grad_smooth_add(rest, dfn, lo, hi, always=False):  # noqa: ANN001, ANN202
-    def grad(theta, sin_theta, cos_theta, omega, t, k, fc):  # noqa: ANN001, ANN202
-        a_th, a_om = rest(theta, sin_theta, cos_theta, omega, t, k, fc)
-        d_th, d_om, dc = dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
-        for i in range(hi - lo):
-            fc[lo + i] = dc[i]
-        if always or k[lo] != 0.0:
-            a_th = a_th + d_th
-            a_om = a_om + d_om
-        return a_th, a_om
+    zeros = (0.0,) * (hi - lo)
+    if rest is None:
+        def grad_first(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+            return dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+        return grad_first
+    if always:
+        def grad_always(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+            a_th, a_om, dcs = rest(theta, sin_theta, cos_theta, omega, t, k, kn)
+            d_th, d_om, dc = dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+            return a_th + d_th, a_om + d_om, dcs + dc
+        return grad_always
+
+    def grad(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+        a_th, a_om, dcs = rest(theta, sin_theta, cos_theta, omega, t, k, kn)
+        dc = zeros
+        if k[lo] != 0.0 or kn[lo] != 0.0:
+            d_th, d_om, dc = dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+            if k[lo] != 0.0:
+                a_th = a_th + d_th
+                a_om = a_om + d_om
+        return a_th, a_om, dcs + dc
     return grad
-
-
-def _grad_smooth_seed(theta, sin_theta, cos_theta, omega, t, k, fc):  # noqa: ANN001, ANN202
-    return 0.0, 0.0
 
 
 def _grad_friction_add(rest, dfn, lo, hi, always=False):  # noqa: ANN001, ANN202
-    def grad(w, s, k, fc):  # noqa: ANN001, ANN202
-        dm = rest(w, s, k, fc)
-        d_w, dc = dfn(w, k[lo:hi])
-        for i in range(hi - lo):
-            fc[lo + i] = -s * dc[i]
-        if always or k[lo] != 0.0:
-            dm = dm + d_w
-        return dm
+    zeros = (0.0,) * (hi - lo)
+    if rest is None and always:
+        def grad_first(w, k, kn):  # noqa: ANN001, ANN202
+            return dfn(w, k[lo:hi])
+        return grad_first
+    if always:
+        def grad_always(w, k, kn):  # noqa: ANN001, ANN202
+            dm, dcf = rest(w, k, kn)
+            d_w, dc = dfn(w, k[lo:hi])
+            return dm + d_w, dcf + dc
+        return grad_always
+
+    def grad(w, k, kn):  # noqa: ANN001, ANN202
+        dm, dcf = rest(w, k, kn)
+        dc = zeros
+        if k[lo] != 0.0 or kn[lo] != 0.0:
+            d_w, dc = dfn(w, k[lo:hi])
+            if k[lo] != 0.0:
+                dm = dm + d_w
+        return dm, dcf + dc
     return grad
 
 
-def _grad_friction_seed(w, s, k, fc):  # noqa: ANN001, ANN202
-    return 0.0
-
-
-def _fold_grad(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...]]:
-    """``(grad_smooth, grad_friction, every function made)`` from the declarations' ``dfn``."""
+def _fold_grad(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...], tuple[int, ...], tuple[int, ...]]:
+    """``(grad_smooth, grad_friction, every function made, smooth slots, friction slots)``
+    from the declarations' ``dfn``; the slot tuples give the order of ``dcs`` and ``dcf``."""
     lay = T.LAYOUT
     made: list[object] = []
-    smooth = _grad_smooth_add(_grad_smooth_seed, lay.base.dfn, *lay.span(lay.base), always=True)
+    smooth = _grad_smooth_add(None, lay.base.dfn, *lay.span(lay.base), always=True)
     made.append(smooth)
-    friction = _grad_friction_seed
-    for term in terms:
-        if term.dfn is None:
-            continue
+    slots_s = list(range(*lay.span(lay.base)))
+    friction = None
+    slots_f: list[int] = []
+    ordered = sorted((t for t in terms if t.dfn is not None and t.kind == "friction"), key=lambda t: not t.always)
+    for term in (*(t for t in terms if t.dfn is not None and t.kind == "smooth"), *ordered):
         if term.kind == "smooth":
             smooth = _grad_smooth_add(smooth, term.dfn, *lay.span(term), always=term.always)
             made.append(smooth)
-        elif term.kind == "friction":
+            slots_s.extend(range(*lay.span(term)))
+        else:  # the first friction term must be an ``always`` one (it starts the tuple): sorted so
             friction = _grad_friction_add(friction, term.dfn, *lay.span(term), always=term.always)
             made.append(friction)
-    return smooth, friction, tuple(made)
+            slots_f.extend(range(*lay.span(term)))
+    return smooth, friction, tuple(made), tuple(slots_s), tuple(slots_f)
 
 
-_GRAD_SMOOTH, _GRAD_FRICTION, _GRAD_FOLDED = _fold_grad(tuple(T.TERMS.values()))
+_GRAD_SMOOTH, _GRAD_FRICTION, _GRAD_FOLDED, GRAD_SLOTS_SMOOTH, GRAD_SLOTS_FRICTION = _fold_grad(tuple(T.TERMS.values()))
+# where slot i's derivative is: GRAD_KIND[i] = 1 in dcs, 2 in dcf (0: no formula), at GRAD_POS[i]
+GRAD_KIND = np.zeros(T.N_COEFFS, dtype=np.int64)
+GRAD_POS = np.zeros(T.N_COEFFS, dtype=np.int64)
+for _pos, _slot in enumerate(GRAD_SLOTS_SMOOTH):
+    GRAD_KIND[_slot], GRAD_POS[_slot] = 1, _pos
+for _pos, _slot in enumerate(GRAD_SLOTS_FRICTION):
+    GRAD_KIND[_slot], GRAD_POS[_slot] = 2, _pos
 
 
-def grad_smooth(theta, sin_theta, cos_theta, omega, t, k, fc):  # noqa: ANN001, ANN201 (numba-compiled)
-    """Partials of :func:`accel_smooth`: returns ``(d/dtheta, d/domega)`` [1/s^2, 1/s], writes
-    ``d/dc`` of every smooth slot into ``fc`` (length ``N_COEFFS``). Folded from the ``dfn``."""
-    return _GRAD_SMOOTH(theta, sin_theta, cos_theta, omega, t, k, fc)
+def grad_smooth(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
+    """Partials of :func:`accel_smooth`: ``(d/dtheta, d/domega, dcs)`` [1/s^2, 1/s], ``dcs`` the
+    derivatives by the smooth slots (:data:`GRAD_SLOTS_SMOOTH` order). Folded from the ``dfn``."""
+    return _GRAD_SMOOTH(theta, sin_theta, cos_theta, omega, t, k, kn)
 
 
-def grad_friction(w, s, k, fc):  # noqa: ANN001, ANN201 (numba-compiled)
-    """``dm/dw`` of the sgn friction at ``w = |omega|`` (its alpha is ``-s m(w)``, so
-    ``d alpha/d omega = -dm/dw``); writes ``-s dm/dc`` of every friction slot into ``fc``."""
-    return _GRAD_FRICTION(w, s, k, fc)
+def grad_friction(w, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
+    """``(dm/dw, dcf)`` of the sgn friction at ``w = |omega|`` (its alpha is ``-s m(w)``, so
+    ``d alpha/d omega = -dm/dw``, ``d alpha/d c = -s dm/dc``); ``dcf`` by the friction slots
+    (:data:`GRAD_SLOTS_FRICTION` order)."""
+    return _GRAD_FRICTION(w, k, kn)
 
 
 def accel_smooth(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN201 (numba-compiled)
@@ -393,32 +424,40 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
             out_alpha[i + 1] = accel_terms(theta, math.sin(theta), omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
 
 
-def accel_grad(theta, omega, t, s, k, fc, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def accel_grad(theta, st, omega, t, s, k, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
     """Partials of the memory-free acceleration at one point with the sgn terms at direction s.
 
-    Returns ``(d alpha/d theta, d alpha/d omega)``; writes ``g[j] = sum_u (d alpha/d c_u)
-    (d c_u/d p_j)`` over the slots ``slot_index`` (``dcoeffs[u, j]``, from
+    ``st = sin(theta)``; ``kn``: 1 at the differentiated slots (:func:`grad_smooth`). Returns
+    ``(d alpha/d theta, d alpha/d omega)``; writes ``g[j] = sum_u (d alpha/d c_u) (d c_u/d p_j)``
+    over the slots ``slot_index`` (``dcoeffs[u, j]``, from
     :meth:`~pendtrack.models.declare.Layout.pack_jacobian`). At ``omega == 0`` exactly the
     friction's omega-derivative (infinite for a sub-linear friction) is taken as 0: the
     sensitivity kernel evaluates there only at the start of a segment pinned to omega = 0 by
     an event, where the omega-sensitivity is 0 by construction (:func:`rk_sens_kernel_py`).
     """
-    st = math.sin(theta)
     ct = math.cos(theta)
-    a_th, a_om = grad_smooth(theta, st, ct, omega, t, k, fc)
-    dmw = grad_friction(abs(omega), s, k, fc)
+    a_th, a_om, dcs = grad_smooth(theta, st, ct, omega, t, k, kn)
+    dmw, dcf = grad_friction(abs(omega), k, kn)
     if omega != 0.0:
         a_om = a_om - dmw
     for j in range(g.shape[0]):
-        acc = 0.0
-        for u in range(slot_index.shape[0]):
-            acc += fc[slot_index[u]] * dcoeffs[u, j]
-        g[j] = acc
+        g[j] = 0.0
+    for u in range(slot_index.shape[0]):
+        i = slot_index[u]
+        kind = GRAD_KIND[i]
+        if kind == 1:
+            v = dcs[GRAD_POS[i]]
+        elif kind == 2:
+            v = -s * dcf[GRAD_POS[i]]
+        else:
+            continue
+        for j in range(g.shape[0]):
+            g[j] += v * dcoeffs[u, j]
     return a_th, a_om
 
 
 def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_sth, out_som,
-                  fc, slot_index, dcoeffs, g, w):  # noqa: ANN001, ANN201
+                  kn, slot_index, dcoeffs, g, w):  # noqa: ANN001, ANN201
     """:func:`rk4_step` (same arithmetic) and the derivative of its result by the parameters.
 
     ``sth, som`` [rad/p, rad/s/p]: d theta/d p_j, d omega/d p_j at the start; the step's
@@ -428,8 +467,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     """
     n_p = sth.shape[0]
     k1t = omega
-    k1w = accel_terms(theta, math.sin(theta), omega, t, s, k) + forcing_at(forcing, t, t_start, h)
-    a_th, a_om = accel_grad(theta, omega, t, s, k, fc, slot_index, dcoeffs, g)
+    s1 = math.sin(theta)
+    k1w = accel_terms(theta, s1, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    a_th, a_om = accel_grad(theta, s1, omega, t, s, k, kn, slot_index, dcoeffs, g)
     for j in range(n_p):  # w[0]: dk1t = som, w[1]: dk1w; w[2], w[3]: the next stage's state derivatives
         w[0, j] = a_th * sth[j] + a_om * som[j] + g[j]  # dk1w
     th2 = theta + 0.5 * dt * k1t
@@ -437,8 +477,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
     k2t = w2
-    k2w = accel_terms(th2, math.sin(th2), w2, tm, s, k) + fm
-    a_th, a_om = accel_grad(th2, w2, tm, s, k, fc, slot_index, dcoeffs, g)
+    s2 = math.sin(th2)
+    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
+    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
     for j in range(n_p):
         d_th2 = sth[j] + 0.5 * dt * som[j]
         d_w2 = som[j] + 0.5 * dt * w[0, j]
@@ -447,8 +488,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     th3 = theta + 0.5 * dt * k2t
     w3 = omega + 0.5 * dt * k2w
     k3t = w3
-    k3w = accel_terms(th3, math.sin(th3), w3, tm, s, k) + fm
-    a_th, a_om = accel_grad(th3, w3, tm, s, k, fc, slot_index, dcoeffs, g)
+    s3 = math.sin(th3)
+    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
+    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
     for j in range(n_p):
         d_th3 = sth[j] + 0.5 * dt * w[1, j]
         d_w3 = som[j] + 0.5 * dt * w[2, j]
@@ -461,8 +503,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     th4 = theta + dt * k3t
     w4 = omega + dt * k3w
     k4t = w4
-    k4w = accel_terms(th4, math.sin(th4), w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
-    a_th, a_om = accel_grad(th4, w4, t + dt, s, k, fc, slot_index, dcoeffs, g)
+    s4 = math.sin(th4)
+    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
     for j in range(n_p):
         d_th4 = sth[j] + dt * w[2, j]
         d_w4 = som[j] + dt * w[3, j]
@@ -475,7 +518,7 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
             omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0)
 
 
-def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, fc, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
     """``(d theta, d omega)`` of :func:`rk4_step`'s result by its step length ``dt``, the start state fixed.
 
     The stages differentiated by dt (the right-hand side's explicit time-dependence, the
@@ -486,34 +529,38 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, fc, sl
     what the discrete solution has (``f(end)`` instead was 15 % off in the Jacobian, measured).
     """
     k1t = omega
-    k1w = accel_terms(theta, math.sin(theta), omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    s1 = math.sin(theta)
+    k1w = accel_terms(theta, s1, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
     th2 = theta + 0.5 * dt * k1t
     w2 = omega + 0.5 * dt * k1w
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
     k2t = w2
-    k2w = accel_terms(th2, math.sin(th2), w2, tm, s, k) + fm
+    s2 = math.sin(th2)
+    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
     d_th2 = 0.5 * k1t
     d_w2 = 0.5 * k1w
-    a_th, a_om = accel_grad(th2, w2, tm, s, k, fc, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
     d_k2t = d_w2
     d_k2w = a_th * d_th2 + a_om * d_w2
     th3 = theta + 0.5 * dt * k2t
     w3 = omega + 0.5 * dt * k2w
     k3t = w3
-    k3w = accel_terms(th3, math.sin(th3), w3, tm, s, k) + fm
+    s3 = math.sin(th3)
+    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
     d_th3 = 0.5 * k2t + 0.5 * dt * d_k2t
     d_w3 = 0.5 * k2w + 0.5 * dt * d_k2w
-    a_th, a_om = accel_grad(th3, w3, tm, s, k, fc, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
     d_k3t = d_w3
     d_k3w = a_th * d_th3 + a_om * d_w3
     th4 = theta + dt * k3t
     w4 = omega + dt * k3w
     k4t = w4
-    k4w = accel_terms(th4, math.sin(th4), w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    s4 = math.sin(th4)
+    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
     d_th4 = k3t + dt * d_k3t
     d_w4 = k3w + dt * d_k3w
-    a_th, a_om = accel_grad(th4, w4, t + dt, s, k, fc, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
     d_k4t = d_w4
     d_k4w = a_th * d_th4 + a_om * d_w4
     return ((k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0 + dt * (2.0 * d_k2t + 2.0 * d_k3t + d_k4t) / 6.0,
@@ -563,7 +610,10 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     c = coeffs
     kc = unpack(c)
     n_p = dtheta0.shape[0]
-    fc = np.zeros(c.shape[0])
+    need = np.zeros(c.shape[0])  # 1 at the differentiated slots (grad_smooth: amplitudes at 0 still differentiated)
+    for u in range(slot_index.shape[0]):
+        need[slot_index[u]] = 1.0
+    kn = unpack(need)
     g = np.zeros(n_p)
     w = np.zeros((4, n_p))
     sth = dtheta0.copy()
@@ -599,11 +649,11 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                             som[j] = 0.0
                         break  # still stuck: theta, omega = 0 unchanged over this sub-step
                 th1, w1 = rk4_sens_step(theta, omega, t, remaining, s, kc, forcing, t_start, h, sth, som,
-                                        out_dtheta[i + 1], out_domega[i + 1], fc, slot_index, dcoeffs, g, w)
+                                        out_dtheta[i + 1], out_domega[i + 1], kn, slot_index, dcoeffs, g, w)
                 if s * w1 >= 0.0:
                     if shifted:  # this segment started at an event: its start time (and length) move with p
                         e_th, e_om = rk4_length_derivative(theta, omega, t, remaining, s, kc, forcing, t_start, h,
-                                                           fc, slot_index, dcoeffs, g)
+                                                           kn, slot_index, dcoeffs, g)
                     theta = th1
                     omega = w1
                     for j in range(n_p):
@@ -648,9 +698,9 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                 # that plus the segment's start shift (the step's start time does not enter an
                 # autonomous step)
                 rk4_sens_step(theta, omega, t, tc, s, kc, forcing, t_start, h, sth, som, sth, som,
-                              fc, slot_index, dcoeffs, g, w)
+                              kn, slot_index, dcoeffs, g, w)
                 e_th, e_om = rk4_length_derivative(theta, omega, t, tc, s, kc, forcing, t_start, h,
-                                                   fc, slot_index, dcoeffs, g)
+                                                   kn, slot_index, dcoeffs, g)
                 for j in range(n_p):
                     dtau = -som[j] / e_om if e_om != 0.0 else 0.0
                     sth[j] += e_th * dtau
@@ -667,7 +717,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
             if shifted:  # an event at the sub-step's very end (or 16 of them): the pinned state's shift
                 if s != 0.0:
                     e_th, e_om = rk4_length_derivative(theta, omega, t, max(t_end - t, 0.0), s, kc, forcing,
-                                                       t_start, h, fc, slot_index, dcoeffs, g)
+                                                       t_start, h, kn, slot_index, dcoeffs, g)
                     for j in range(n_p):
                         sth[j] -= e_th * delta[j]
                         som[j] -= e_om * delta[j]
@@ -1018,14 +1068,17 @@ def _register() -> None:
     # inlining of the nested folds would cost minutes of compilation)
     formulas = tuple(t.fn for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
     derivatives = tuple(t.dfn for t in (T.BASE, *T.TERMS.values()) if t.dfn is not None)
-    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED, _grad_smooth_seed,
-               _grad_friction_seed):
+    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED):
         register_jitable(fn)
     for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
                memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, grad_smooth, grad_friction):
         register_jitable(inline="always")(fn)
-    for fn in (direction, rk4_step, accel_grad, rk4_sens_step, rk4_length_derivative):  # larger: ordinary calls (inlining costs compile time)
+    for fn in (direction, rk4_step, rk4_length_derivative):  # larger: ordinary calls (inlining costs compile time)
         register_jitable(fn)
+    # the sensitivity step and its partials pass arrays: inlined, so that no call passes (and
+    # reference-counts) them per stage (3x faster, measured)
+    register_jitable(inline="always")(accel_grad)
+    register_jitable(inline="always")(rk4_sens_step)
     register_jitable(fastmath=True)(gl_dot)
     register_jitable(binomial_series)
     register_jitable(gl_weights)

@@ -114,9 +114,9 @@ def _power_drag_d(w, c):  # noqa: ANN001, ANN201
     amp, exponent, scale = c
     x = w * scale
     y = x ** exponent
-    # d/dexponent: y ln x, written y ln max(x, tiny) so that it is 0 (not 0 * -inf) at w = 0
-    return (amp * exponent * scale * np.power(x, exponent - 1.0),  # np.power: inf, not an exception, at 0
-            (y, amp * y * np.log(np.maximum(x, 1e-300)), amp * exponent * y / scale))
+    xs = np.maximum(x, 1e-300)  # 0 * ln(tiny) = 0 and 0 / tiny = 0 at w = 0, no exception, no second pow
+    # dm/dw = amp p y / w (at w = 0 it is 0 here; the kernel does not use it there), dm/dp = y ln x
+    return amp * exponent * scale * y / xs, (y, amp * y * np.log(xs), amp * exponent * y / scale)
 
 
 def _quarter_friction_d(w, c):  # noqa: ANN001, ANN201
