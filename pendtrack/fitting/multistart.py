@@ -341,10 +341,13 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
 
 
 def _warm(problem: FitProblem, x: np.ndarray) -> None:
-    """Worker initializer: one short simulation so the numba kernels are loaded or compiled."""
+    """Worker initializer: one short simulation (and sensitivity Jacobian, if the problem uses
+    them) so the numba kernels are loaded or compiled."""
     short = problem.restrict(problem.t_start + (20 + 2 * problem.observation.trim) * problem.h)
     try:
         short.residuals(x)
+        if short.uses_sensitivities():
+            short.jacobian_sensitivity(x)
     except Exception:  # noqa: BLE001 - warming is best effort; the real call reports errors
         pass
 
