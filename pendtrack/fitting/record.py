@@ -156,7 +156,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
     simulator, method
         As in :func:`pendtrack.fitting.fit_model`.
     jacobian_method : {"fd", "sensitivity"}
-        :attr:`FitProblem.jacobian_method` (``[fit] jacobian``).
+        :attr:`FitProblem.jacobian_method` (``[fit] jacobian``; the estimate step passes the options' value).
     """
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
