@@ -1,5 +1,8 @@
 """The solver kernels: plain arrays and scalars in, preallocated arrays out.
 
+(A third, :func:`rk_sens_kernel_py` / :func:`rk_sens_kernel_nb`, is :func:`rk_kernel_py` with
+the forward sensitivities, its partials folded from the terms' declared ``dfn``.)
+
 Two kernels, each a pure-Python function (``*_py``) that numba compiles unchanged on first
 use (``*_nb`` via :func:`pc_kernel_nb` / :func:`rk_kernel_nb`, ``@njit(cache=True)``);
 nothing is compiled or even imported from numba at import time. Both read the packed
@@ -590,21 +593,24 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     Notes
     -----
     **Events** (omega changes sign within a sub-step at tau). The state there is pinned,
-    ``omega(tau) = 0``, and tau depends on the parameters: ``d tau/dp = -S_omega^- / alpha^-``
-    (``S_omega^-`` the omega-sensitivity of the RK4 step to tau, ``alpha^-`` the acceleration
-    there with the old direction). The segment after it starts from ``(theta(tau), 0)`` with the
-    sensitivities ``(S_theta^-, 0)``; at its end (the sub-step's end or the next event) the
-    shift of its start time is added, ``S -= f(end) d tau/dp`` (``f = (omega, alpha)`` there,
-    new direction). This is the classical jump ``S_omega^+ = S_omega^- alpha^+/alpha^-`` of
-    sensitivities at a switching surface, written so that it never evaluates the friction's
-    omega-derivative at omega = 0 with a non-zero omega-sensitivity (a sub-linear friction's is
-    infinite there: at a pinned start :func:`accel_grad` sets it to 0, and the sensitivity it
-    multiplies is 0). With Coulomb friction ``alpha^+ != alpha^-``, so the jump matters. The
-    time-dependence of the ``C4/(t - t0)`` term over the rest of the sub-step is neglected in
-    the shift (relative error ~ h_sub^2 C4 / (t - t0)^2, far below 1e-8 for t - t0 > 1 ms ...
-    h_sub = 1/360 s; see the tests). A pendulum that sticks (static friction holds it) keeps
-    ``S_omega = 0`` and a constant ``S_theta``; unsticking (only with a time-dependent forcing)
-    is not differentiated. At ``omega0 = 0`` exactly the solution is not differentiable in
+    ``omega(tau) = 0``, and tau depends on the parameters: ``d tau/dp = -S_omega^- / E_omega``
+    (``S_omega^-`` the omega-sensitivity of the RK4 step of length tau, ``E_omega`` the
+    derivative of that step's omega by its length, :func:`rk4_length_derivative`; ``S_theta``
+    gets ``E_theta d tau/dp``). The segment after it starts from ``(theta(tau), 0)`` with the
+    sensitivities ``(S_theta, 0)`` and remembers ``d tau/dp``; a later event in the segment adds
+    it to its own time; at the sub-step's end the segment is shorter by ``d tau/dp``:
+    ``S -= E(end) d tau/dp`` with the step-length derivative of the segment's step. For the exact
+    flow ``E = f = (omega, alpha)``, and this is the classical jump ``S_omega^+ = S_omega^-
+    alpha^+/alpha^-`` of sensitivities at a switching surface (with Coulomb friction
+    ``alpha^+ != alpha^-``, so it matters); the discrete step's own E keeps the result the exact
+    derivative of the discrete solution, and the friction's omega-derivative (infinite at
+    omega = 0 for a sub-linear friction) is never multiplied by a non-zero sensitivity: at a
+    pinned start :func:`accel_grad` sets it to 0, and the sensitivity it multiplies is 0. The
+    right-hand side's explicit time-dependence (the ``C4/(t - t0)`` term, a forcing) is left
+    out of E (measured: classic plus that term, t - t0 >= 5 s, within 1e-6 of central
+    differences). A pendulum that sticks (static friction holds it) keeps ``S_omega = 0`` and a
+    constant ``S_theta``; unsticking (only with a time-dependent forcing) is not differentiated.
+    At ``omega0 = 0`` exactly the solution is not differentiable in
     ``omega0`` (the initial direction switches); the kernel then gives one side's derivative.
     """
     c = coeffs
