@@ -28,6 +28,7 @@ VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg
 # radial projections of pendtrack.lens.fisheye (a lens's input; "none" and "rectilinear" do not bend rays)
 LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
+FIT_JACOBIANS = ("sensitivity", "fd")  # [fit] jacobian: forward sensitivity equations | finite differences
 FIT_OFFSETS = ("auto", "always", "never")  # [fit] offset: fit theta's zero (theta_off) when not measured, always, never
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
@@ -121,6 +122,12 @@ class FitConfig:
     # `run`: auto = when the zero is not a measured rest (angle.parquet's zero_reference "vertical", or a
     # plain table), always, never
     offset: str = "auto"
+    # Jacobians of the Levenberg-Marquardt starts and the refine step: "sensitivity" = the forward
+    # sensitivity equations integrated with the RK4 trajectory (models without memory; the others keep
+    # finite differences), "fd" = finite differences (one simulation per parameter). The sandwich
+    # standard errors always use central finite differences. Same minima as "fd" (classic, 60 s, 150
+    # starts: Xi^2_min 1.8e-7 lower, values within 0.03 standard errors), 1.7x faster (benchmarks/bench_jacobian.py)
+    jacobian: str = "sensitivity"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -318,6 +325,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.models": (_NAMES,),
     "fit.cost": (_one_of(FIT_COSTS),),
     "fit.offset": (_one_of(FIT_OFFSETS),),
+    "fit.jacobian": (_one_of(FIT_JACOBIANS),),
     "fit.n_starts": (_ge(1),),
     "fit.accept_ratio": (_ge(1),),
     "fit.start_spread": (_ge(0),),

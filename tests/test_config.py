@@ -85,6 +85,7 @@ def test_replace_overrides_one_section_and_validates():
         ("[angle]\nrest_seconds = 0\n", "'angle.rest_seconds' must be > 0, got 0"),
         ("[models]\nmemory_s = 0.0\n", "'models.memory_s' must be > 0, got 0.0"),
         ("[fit]\ncost = 'l1'\n", "'fit.cost' must be one of xi2, theta, got 'l1'"),
+        ("[fit]\njacobian = 'adjoint'\n", "'fit.jacobian' must be one of sensitivity, fd, got 'adjoint'"),
         ("[fit]\nn_starts = 0\n", "'fit.n_starts' must be >= 1, got 0"),
         ("[fit]\naccept_ratio = 0.9\n", "'fit.accept_ratio' must be >= 1, got 0.9"),
         ("[fit]\nmodels = ['classic', '']\n", "'fit.models' must hold non-empty names"),

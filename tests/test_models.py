@@ -299,7 +299,8 @@ def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
 
     extra = Term("spring", "smooth", (ParamSpec("Ks", "1/s^2", 0.0, np.inf, False, True, "test spring"),),
                  "-Ks theta", "test", slots=(Slot("SPRING"),), pack=lambda p: {"SPRING": p["Ks"]},
-                 fn=lambda theta, sin_theta, omega, t, c: -c[0] * theta)
+                 fn=lambda theta, sin_theta, omega, t, c: -c[0] * theta,
+                 dfn=lambda theta, sin_theta, cos_theta, omega, t, c: (-c[0] + 0.0 * theta, 0.0 * omega, (-theta,)))
     lay = Layout(T.BASE, (*T.CATALOGUE.values(), extra))
     assert lay.size == T.N_COEFFS + 1
     c = lay.pack(("viscous", "spring"), {"Omega0": 2.0, "C1": 0.1, "Ks": 3.0})
@@ -308,6 +309,15 @@ def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
     theta, omega = np.array([0.3, -0.2]), np.array([1.0, 2.0])
     a = smooth(theta, np.sin(theta), omega, 0.0, tuple(c.tolist()))
     np.testing.assert_allclose(a, -4.0 * np.sin(theta) - 3.0 * theta, rtol=1e-15)
+    # its derivative formula enters the sensitivity kernel's fold the same way
+    grad = kernels._grad_smooth_add(kernels._grad_smooth_add(None, T.BASE.dfn, *lay.span(T.BASE), always=True),
+                                    extra.dfn, *lay.span(extra))
+    k, kn = tuple(c.tolist()), (0.0,) * lay.size
+    a_th, a_om, dcs = grad(theta[0], np.sin(theta[0]), np.cos(theta[0]), omega[0], 0.0, k, kn)
+    assert a_th == pytest.approx(-4.0 * np.cos(theta[0]) - 3.0, rel=1e-15) and a_om == 0.0
+    assert dcs == (-np.sin(theta[0]), -theta[0], -theta[0])  # by SIN, LIN, then SPRING
+    with pytest.raises(ValueError, match="needs its derivative dfn"):
+        Term("bad", "smooth", extra.specs, "", "", slots=(Slot("BAD"),), pack=extra.pack, fn=extra.fn)
 
 
 def test_kernel_cache_is_keyed_on_the_declarations() -> None:

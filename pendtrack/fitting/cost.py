@@ -103,6 +103,35 @@ class Observation:
         return (smoothed if self.smooth_theta else theta), om
 
 
+    def apply_columns(self, theta: np.ndarray, omega: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`apply` to every column of ``(n, P)`` arrays (the filter is linear: sensitivities).
+
+        Parameters
+        ----------
+        theta, omega : ndarray
+            ``(n, P)``: e.g. d theta/d p_j [rad/unit] and d omega/d p_j [rad/s/unit] on the grid.
+        h : float
+            Grid step [s].
+
+        Returns
+        -------
+        theta_obs, omega_obs : ndarray
+            ``(n, P)``, column j what :meth:`apply` returns for column j.
+        """
+        w = self.savgol_window
+        if not w or theta.shape[0] < w:
+            return theta, omega
+        th_t = np.ascontiguousarray(theta.T)
+        sm = th_t.copy()
+        om = np.array(omega.T, dtype=float, order="C")
+        cs = _coeffs(w, self.savgol_order, 0, 1.0)[::-1].copy()
+        cd = _coeffs(w, self.savgol_order, 1, h)[::-1].copy()
+        kern = filter_kernel()
+        for j in range(th_t.shape[0]):
+            kern(th_t[j], cs, cd, sm[j], om[j])
+        return (sm if self.smooth_theta else th_t).T, om.T
+
+
 def savgol_pair_py(x, c_smooth, c_deriv, out_smooth, out_deriv):  # noqa: ANN001, ANN201
     """Two FIR filters of ``x`` in one pass ("valid" part, centred); ends of the outputs untouched.
 

@@ -37,7 +37,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.estimate import estimate
 from pendtrack.fitting.multistart import Deadlines
-from pendtrack.fitting.problem import Simulator
+from pendtrack.fitting.problem import JACOBIANS, Simulator
 from pendtrack.fitting.record import Record
 from pendtrack.fitting.refine import refine
 from pendtrack.fitting.result import FitResult, build_result
@@ -46,9 +46,11 @@ from pendtrack.fitting.uncertainty import assess
 
 
 def check_options(options: FitConfig, *, source: str = "the data") -> None:
-    """FitError if ``options`` cannot run a fit (unknown cost, no start, 5/4 rule below 1)."""
+    """FitError if ``options`` cannot run a fit (unknown cost or Jacobian, no start, 5/4 rule below 1)."""
     if options.cost not in COSTS:
         raise FitError(f"unknown cost '{options.cost}' (use {' or '.join(COSTS)})", path=source)
+    if options.jacobian not in JACOBIANS:
+        raise FitError(f"unknown jacobian '{options.jacobian}' (use {' or '.join(JACOBIANS)})", path=source)
     if options.n_starts < 1:
         raise FitError(f"n_starts must be >= 1, got {options.n_starts}", path=source)
     if options.accept_ratio < 1:

@@ -184,7 +184,11 @@ class _Tracker:
     """Counts residual evaluations of a problem, remembers the best point, enforces a budget.
 
     Its :meth:`jac` is the forward- (or, with ``central``, central-) difference Jacobian with the
-    problem's steps (:meth:`FitProblem.fd_steps`), evaluated through the same counter.
+    problem's steps (:meth:`FitProblem.fd_steps`), evaluated through the same counter -- or, where
+    the problem integrates sensitivities (:meth:`FitProblem.uses_sensitivities`, ``[fit] jacobian``),
+    the sensitivity Jacobian, counted as the evaluations its finite differences would have made
+    (p, or 2p with ``central``): the budgets, in Jacobians' worth, keep their meaning, so a start
+    takes the same iterations with either Jacobian.
     """
 
     def __init__(self, problem: FitProblem, budget: int, *, central: bool = False,
@@ -215,12 +219,32 @@ class _Tracker:
             self.best_at_80 = self.best_cost
         return r
 
+    def _sensitivity_jac(self, x: np.ndarray) -> np.ndarray | None:
+        """The sensitivity Jacobian through the counter (its finite differences' worth of evaluations)."""
+        worth = x.size * (2 if self.central else 1)
+        if self.calls + worth > self.budget:  # where the finite differences would have run out
+            raise _Budget
+        if self.calls and past(self.deadline):
+            self.timed_out = True
+            raise _Budget
+        mark = int(0.8 * self.budget)
+        before = self.calls
+        self.calls += worth
+        if before < mark <= self.calls:
+            self.best_at_80 = self.best_cost
+        return self.problem.jacobian_sensitivity(x)
+
     @property
     def settled(self) -> bool:
         """The last 20 % of the budget lowered the cost by less than ``SETTLED`` relative."""
         return self.best_at_80 - self.best_cost <= SETTLED * self.best_cost
 
     def jac(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        if self.problem.uses_sensitivities():
+            jac = self._sensitivity_jac(x)
+            if jac is not None:
+                return jac
+            self.calls -= x.size * (2 if self.central else 1)  # failed (a penalty point): differences below
         lo, hi = self.problem.lower, self.problem.upper
         steps = self.problem.fd_steps(x)
         jac = np.empty((r0.size, x.size), order="F")  # columns contiguous: LM's products with J run ~3x faster
@@ -317,10 +341,13 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
 
 
 def _warm(problem: FitProblem, x: np.ndarray) -> None:
-    """Worker initializer: one short simulation so the numba kernels are loaded or compiled."""
+    """Worker initializer: one short simulation (and sensitivity Jacobian, if the problem uses
+    them) so the numba kernels are loaded or compiled."""
     short = problem.restrict(problem.t_start + (20 + 2 * problem.observation.trim) * problem.h)
     try:
         short.residuals(x)
+        if short.uses_sensitivities():
+            short.jacobian_sensitivity(x)
     except Exception:  # noqa: BLE001 - warming is best effort; the real call reports errors
         pass
 

@@ -26,6 +26,7 @@ from pendtrack.fitting.cost import Observation, residual_vector
 STATE_NAMES = ("theta0", "omega0")
 PENALTY = 10.0  # residual value returned where the simulation fails (cost >> any real Xi^2)
 FD_REL = 1e-5  # relative finite-difference step (see FitProblem.fd_steps)
+JACOBIANS = ("sensitivity", "fd")  # FitProblem.jacobian's methods ([fit] jacobian)
 
 Simulator = Callable[..., Any]
 
@@ -117,6 +118,10 @@ class FitProblem:
     max_step_s : float or None
         Largest predictor-corrector step of a model with memory [s] (``[models] max_step_s``;
         None: its default, the paper's 1/120 s): a coarser grid is sub-stepped.
+    jacobian_method : str
+        How :meth:`jacobian` differentiates by default (``[fit] jacobian``): ``"sensitivity"``
+        (forward sensitivity equations, for the models without memory on the built-in simulator;
+        the others fall back to finite differences) or ``"fd"`` (finite differences).
     """
 
     model: Any
@@ -138,6 +143,7 @@ class FitProblem:
     full_history: bool = False
     typical: np.ndarray | None = None
     max_step_s: float | None = None
+    jacobian_method: str = "fd"
 
     # ---- names -------------------------------------------------------------------------
     @property
@@ -249,14 +255,34 @@ class FitProblem:
             typ[j] = max(typ[j], floors.get(name, 1e-12))
         return (FD_REL if rel is None else rel) * typ
 
-    def jacobian(self, x: np.ndarray, *, r0: np.ndarray | None = None, central: bool = False,
-                 rel: float | None = None, steps: np.ndarray | None = None) -> np.ndarray:
-        """Finite-difference Jacobian of :meth:`residuals` at ``x`` (steps kept inside the bounds).
+    @property
+    def has_sensitivities(self) -> bool:
+        """True if :meth:`jacobian_sensitivity` applies: the built-in simulator, a model without memory."""
+        return self.simulator is None and not self.model.has_memory
 
-        Forward differences (reusing ``r0 = residuals(x)`` if given) or, with ``central``,
-        central ones; steps :meth:`fd_steps` (``rel``) unless given; shape ``(m, p)``.
+    def uses_sensitivities(self, method: str | None = None) -> bool:
+        """True if :meth:`jacobian` with ``method`` (default :attr:`jacobian_method`) integrates sensitivities."""
+        m = self.jacobian_method if method is None else method
+        if m not in JACOBIANS:
+            raise ValueError(f"unknown Jacobian method {m!r}; expected one of {JACOBIANS}")
+        return m == "sensitivity" and self.has_sensitivities
+
+    def jacobian(self, x: np.ndarray, *, r0: np.ndarray | None = None, central: bool = False,
+                 rel: float | None = None, steps: np.ndarray | None = None, method: str | None = None) -> np.ndarray:
+        """Jacobian of :meth:`residuals` at ``x``, shape ``(m, p)``.
+
+        ``method`` (default :attr:`jacobian_method`): ``"sensitivity"`` -- the forward
+        sensitivity equations (:meth:`jacobian_sensitivity`; ``r0``, ``central``, ``rel``,
+        ``steps`` are then unused) where :attr:`has_sensitivities`, else finite differences;
+        ``"fd"`` -- finite differences (steps kept inside the bounds): forward (reusing
+        ``r0 = residuals(x)`` if given) or, with ``central``, central ones; steps
+        :meth:`fd_steps` (``rel``) unless given.
         """
         x = np.asarray(x, dtype=float)
+        if self.uses_sensitivities(method):
+            jac = self.jacobian_sensitivity(x)
+            if jac is not None:
+                return jac
         steps = self.fd_steps(x, rel) if steps is None else np.asarray(steps, dtype=float)
         if r0 is None and not central:
             r0 = self.residuals(x)
@@ -280,6 +306,126 @@ class FitProblem:
                 xp[j] += h
                 cols.append((self.residuals(xp) - r0) / h)
         return np.column_stack(cols)
+
+    def simulate_sensitivities(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`simulate` and the derivatives of its observed curves by the fitted vector.
+
+        The model (no memory) is integrated with its forward sensitivities
+        (:func:`pendtrack.models.simulate_sensitivities`: RK4 with the same sub-steps and
+        sign-change events as the simulation); the derivatives of the packed coefficients by
+        the parameters come from the declarations (complex steps of their ``pack``). Both
+        observation steps are then applied to the sensitivities: the measurement terms by the
+        chain rule (:meth:`_observe_sensitivities`) and the Savitzky-Golay filter, which is
+        linear, column by column (:meth:`Observation.apply_columns`).
+
+        Returns
+        -------
+        theta, omega : ndarray
+            ``(n_grid,)``, as :meth:`simulate` [rad], [rad/s].
+        dtheta, domega : ndarray
+            ``(n_grid, p)``: their derivatives by each fitted parameter (:attr:`names` order).
+
+        Raises
+        ------
+        FloatingPointError
+            The solution or its sensitivities are not finite.
+        """
+        from pendtrack.models.simulate import simulate_sensitivities
+        from pendtrack.models.terms import LAYOUT
+
+        p = self.full(x)
+        params = {k: v for k, v in p.items() if k not in STATE_NAMES}
+        model = self.model
+        coeffs = model.pack(params)  # validates the physical ranges (ModelError)
+        names = self.names
+        phys = [n for n in names if n in params]
+        dpack = LAYOUT.pack_jacobian(model.terms, model.validate(params), phys)
+        dcoeffs = np.zeros((coeffs.size, len(names)))
+        d_theta0 = np.zeros(len(names))
+        d_omega0 = np.zeros(len(names))
+        for j, name in enumerate(names):
+            if name == "theta0":
+                d_theta0[j] = 1.0
+            elif name == "omega0":
+                d_omega0[j] = 1.0
+            else:
+                dcoeffs[:, j] = dpack[:, phys.index(name)]
+        theta, omega, dth, dom = simulate_sensitivities(coeffs, dcoeffs, self.n_grid - 1, self.h, p["theta0"],
+                                                        p["omega0"], d_theta0, d_omega0, t_start=self.t_start)
+        if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(omega)) and np.all(np.isfinite(dth))
+                and np.all(np.isfinite(dom))):
+            raise FloatingPointError("simulation or its sensitivities did not return finite values on the grid")
+        if getattr(model, "measurement_terms", ()):
+            theta, omega, dth, dom = self._observe_sensitivities(theta, omega, dth, dom, params)
+        theta, omega = self.observation.apply(theta, omega, self.h)
+        dth, dom = self.observation.apply_columns(dth, dom, self.h)
+        return theta, omega, dth, dom
+
+    def _observe_sensitivities(self, theta: np.ndarray, omega: np.ndarray, dth: np.ndarray, dom: np.ndarray,
+                               params: Mapping[str, float]) -> tuple[np.ndarray, ...]:
+        """The measurement terms applied to the state and, by the chain rule, to its sensitivities.
+
+        ``Model.observe_state``: ``theta_obs = F(theta, q)``, ``omega_obs = S(theta, q) omega``
+        with ``S`` the central difference of ``F`` over +-``OBSERVE_FD_STEP`` (differentiated as
+        it is computed, so this is the derivative of what :meth:`residuals` sees). The
+        derivatives of ``F`` by theta and by the measurement parameters ``q`` are complex steps
+        of the declared formulas (arithmetic, so analytic).
+        """
+        from pendtrack.models.registry import OBSERVE_FD_STEP
+        from pendtrack.models.terms import CATALOGUE
+
+        model = self.model
+        p = model.validate(params)
+        th_obs, om_obs = model.observe_state(theta, omega, p)
+        d = OBSERVE_FD_STEP
+        eps = 1e-30
+
+        def f(th: np.ndarray, pp: Mapping[str, complex]) -> np.ndarray:
+            return model._observe(th, pp)  # noqa: SLF001 - the composed declared observation
+
+        th_c = theta.astype(complex)
+        slope = (f(theta + d, p) - f(theta - d, p)) / (2.0 * d)
+        df_dth = f(th_c + 1j * eps, p).imag / eps
+        dslope_dth = (f(th_c + d + 1j * eps, p).imag - f(th_c - d + 1j * eps, p).imag) / (eps * 2.0 * d)
+        out_th = df_dth[:, None] * dth
+        out_om = (dslope_dth * omega)[:, None] * dth + slope[:, None] * dom
+        measured = {n for t in model.measurement_terms for n in CATALOGUE[t].params}
+        for j, name in enumerate(self.names):
+            if name not in measured:
+                continue
+            pc: dict[str, complex] = {k: complex(v) for k, v in p.items()}
+            pc[name] = pc[name] + 1j * eps
+            out_th[:, j] += f(th_c, pc).imag / eps
+            out_om[:, j] += (f(th_c + d, pc).imag - f(th_c - d, pc).imag) / (eps * 2.0 * d) * omega
+        return th_obs, om_obs, out_th, out_om
+
+    def jacobian_sensitivity(self, x: np.ndarray) -> np.ndarray | None:
+        """Jacobian of :meth:`residuals` from the forward sensitivities, shape ``(m, p)`` (columns contiguous).
+
+        The observed curves' derivatives (:meth:`simulate_sensitivities`) at the data samples,
+        through the cost's chain rule (:func:`pendtrack.fitting.cost.residual_vector`): for
+        ``"xi2"`` ``d r_theta = cos(theta/2)/2 d theta / sqrt(N)`` (``A_theta = sin(theta/2)``) and
+        ``d r_omega = omega_scale d omega / sqrt(N)``; ``omega_scale = 1/(2 Omega0_hat)`` is the
+        fixed, data-derived scale (not the fitted Omega0: no term by Omega0 through the scale);
+        for ``"theta"`` ``d theta / sqrt(N)``. None where the simulation fails (the caller then
+        differentiates :meth:`residuals`, whose penalty is constant, by finite differences).
+        """
+        try:
+            theta, omega, dth, dom = self.simulate_sensitivities(x)
+        except (PendtrackError, ValueError, ArithmeticError):
+            return None
+        idx = self.index
+        n = self.n
+        norm = 1.0 / math.sqrt(n)
+        p = dth.shape[1]
+        if self.cost == "xi2":
+            jac = np.empty((2 * n, p), order="F")
+            jac[:n] = (0.5 * norm) * np.cos(0.5 * theta[idx])[:, None] * dth[idx]
+            jac[n:] = (self.omega_scale * norm) * dom[idx]
+            return jac
+        if self.cost == "theta":
+            return np.asfortranarray(norm * dth[idx])
+        raise ValueError(f"unknown cost {self.cost!r}")
 
     # ---- windows -----------------------------------------------------------------------
     def restrict(self, t_end: float) -> "FitProblem":

@@ -138,7 +138,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                   window: tuple[float, float] | None = None, cost: str = "xi2", omega0_hat: float,
                   observation: Observation | None = None, memory_s: float = MEMORY_S,
                   full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
-                  source: str = "the data", max_step_s: float | None = None) -> FitProblem:
+                  source: str = "the data", max_step_s: float | None = None, jacobian_method: str = "fd") -> FitProblem:
     """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
 
     Parameters
@@ -155,6 +155,8 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
         Largest predictor-corrector step [s] (``[models] max_step_s``; None: its default).
     simulator, method
         As in :func:`pendtrack.fitting.fit_model`.
+    jacobian_method : {"fd", "sensitivity"}
+        :attr:`FitProblem.jacobian_method` (``[fit] jacobian``; the estimate step passes the options' value).
     """
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
@@ -175,7 +177,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                       theta=theta[mask][keep], omega=omega[mask][keep], cost=cost,
                       omega_scale=1.0 / (2.0 * omega0_hat), observation=obs, memory_s=float(memory_s),
                       method=method, lower=lower, upper=upper, simulator=simulator, full_history=full_history,
-                      max_step_s=max_step_s)
+                      max_step_s=max_step_s, jacobian_method=jacobian_method)
 
 
 def uniform_series(problem: FitProblem, t: np.ndarray, series: list[np.ndarray],

@@ -288,7 +288,7 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     x = best.x
     u_paper, accepted = paper_uncertainty(found.xs, found.costs, options.accept_ratio)
     r = problem.residuals(x)
-    jac = problem.jacobian(x, central=True)
+    jac = problem.jacobian(x, central=True, method="fd")  # the sandwich and its 10x-step check: finite differences
     cov, lag = hac_covariance(jac, r, problem.n)
     # smoothness check: the sandwich of the parameters inside their bounds, with 10x larger steps,
     # must agree (it does for smooth solvers; a solver that is rough in the parameters makes
@@ -297,7 +297,7 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     step_spread = 0.0
     if inner.any():
         se_in, _ = hac_covariance(jac[:, inner], r, problem.n, lag=lag)
-        wide = problem.jacobian(x, central=True, rel=10 * FD_REL)
+        wide = problem.jacobian(x, central=True, rel=10 * FD_REL, method="fd")
         se_wide, _ = hac_covariance(wide[:, inner], r, problem.n, lag=lag)
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio = np.abs(np.log(stderr_from_cov(se_wide) / stderr_from_cov(se_in)))

@@ -11,7 +11,11 @@ A :class:`Term` is the single source of everything about one effect. The rest of
   right-hand side alike -- by folding the :attr:`Term.fn` of every declared term
   (:mod:`pendtrack.models.kernels`);
 * the observation ``theta_obs = f(theta_model, params)`` from the measurement terms
-  (``Model.observe``).
+  (``Model.observe``);
+* the partial derivatives of the acceleration (the forward sensitivity equations of the RK4
+  kernel, :func:`pendtrack.models.kernels.rk_sens_kernel_py`) by folding every term's
+  :attr:`Term.dfn` the same way, and the derivatives of the packed slots with respect to the
+  parameters by complex-step differentiation of :attr:`Term.pack` (:meth:`Layout.pack_jacobian`).
 
 Term kinds and the signature of :attr:`Term.fn` (``c`` is the tuple of the term's own slot
 values, in the order of :attr:`Term.slots`; every ``fn`` of the equation of motion must work
@@ -28,6 +32,20 @@ side calls it -- so it uses arithmetic and numpy ufuncs only, no ``if`` on the a
                   kernels and :mod:`pendtrack.models.rhs` treat its history specially.
 ``"measurement"`` not in the equation of motion: ``fn(theta, c) -> theta_obs`` with ``c`` the
                   term's parameter values (in :attr:`Term.specs` order); no slots.
+
+The derivative formula :attr:`Term.dfn` (terms with an ``fn`` in the equation of motion; same
+rules as ``fn``):
+
+``"base"``, ``"smooth"``  ``dfn(theta, sin_theta, cos_theta, omega, t, c) -> (d/dtheta, d/domega,
+                  (d/dc_0, d/dc_1, ...))`` of the term's contribution (theta-derivative total,
+                  ``sin_theta = sin(theta)``), one entry per slot.
+``"friction"``    ``dfn(w, c) -> (dm/dw, (dm/dc_0, ...))`` of ``m`` (not of ``M``: the RK4 kernel
+                  does not use the antiderivative). ``dm/dw`` may be infinite at ``w = 0`` (a
+                  sub-linear friction); the slot derivatives must stay finite there.
+
+The measurement terms and the packing need no derivative: both are differentiated by complex
+steps (their formulas are arithmetic), so they must be complex-analytic (no ``abs``, no
+``math.*``). A test checks every declared ``dfn`` against central differences of its ``fn``.
 
 One compiled kernel serves every composition: an absent term has its slots at their neutral
 values. A smooth or friction term whose first slot is 0 contributes nothing, and the kernels
@@ -118,6 +136,9 @@ class Term:
     domain : callable, optional
         ``domain(p, t_first) -> str | None``: a message if the parameters are outside the
         formula's domain for times from ``t_first`` on (e.g. ``t0`` of ``C4/(t - t0)``).
+    dfn : callable, optional
+        The formula's partial derivatives (signature by kind, module docstring); ``None``
+        exactly when ``fn`` is ``None`` or the term is a measurement term.
     always : bool
         Evaluate ``fn`` even when the term is absent, instead of testing its first slot
         for 0: for a cheap formula that is exactly 0 at its neutral slot values (its
@@ -136,6 +157,7 @@ class Term:
     fn: Callable | None = None
     domain: Callable[[Mapping[str, float], float], str | None] | None = None
     always: bool = False
+    dfn: Callable | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -144,6 +166,8 @@ class Term:
             raise ValueError(f"term '{self.name}' has slots but no fn")
         if self.kind == "measurement" and (self.slots or self.pack is not None or self.fn is None):
             raise ValueError(f"measurement term '{self.name}' needs an fn and has no slots")
+        if self.kind in ("base", "smooth", "friction") and (self.fn is None) != (self.dfn is None):
+            raise ValueError(f"term '{self.name}': an fn needs its derivative dfn (and only an fn has one)")
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -219,7 +243,10 @@ class Layout:
         numpy.ndarray
             float64, shape ``(size,)``.
         """
-        c = list(self.neutral)
+        return np.asarray(self._values(term_names, params), dtype=np.float64)
+
+    def _values(self, term_names: Iterable[str], params: Mapping[str, object]) -> list:
+        c: list = list(self.neutral)
         given: set[str] = set()
         for t in (self.base, *(self.terms[n] for n in term_names)):
             if t.pack is None:
@@ -228,4 +255,36 @@ class Layout:
                 i = self.index[slot]
                 c[i] = (c[i] + value) if slot in given else value
                 given.add(slot)
-        return np.asarray(c, dtype=np.float64)
+        return c
+
+    def pack_jacobian(self, term_names: Iterable[str], params: Mapping[str, float],
+                      names: Iterable[str]) -> np.ndarray:
+        """``d c_k / d p_j``: the packed vector's derivatives with respect to the parameters ``names``.
+
+        Complex-step differentiation of the declared :attr:`Term.pack` functions
+        (``Im c(p + i eps e_j) / eps``, eps = 1e-30): exact to rounding, with no subtraction,
+        for any arithmetic packing (``Omega0^2``, ``1/Omega0``, ``2 Omega0 C5`` ...).
+
+        Parameters
+        ----------
+        term_names : iterable of str
+            Terms of the model.
+        params : mapping
+            Validated parameter values (including ``Omega0``).
+        names : iterable of str
+            The parameters to differentiate by (each a key of ``params``).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, shape ``(size, len(names))`` [slot unit / parameter unit].
+        """
+        terms = tuple(term_names)
+        names = tuple(names)
+        out = np.zeros((self.size, len(names)))
+        eps = 1e-30
+        for j, name in enumerate(names):
+            p = {k: complex(v) for k, v in params.items()}
+            p[name] = p[name] + 1j * eps
+            out[:, j] = [complex(v).imag / eps for v in self._values(terms, p)]
+        return out

@@ -1,5 +1,8 @@
 """The solver kernels: plain arrays and scalars in, preallocated arrays out.
 
+(A third, :func:`rk_sens_kernel_py` / :func:`rk_sens_kernel_nb`, is :func:`rk_kernel_py` with
+the forward sensitivities, its partials folded from the terms' declared ``dfn``.)
+
 Two kernels, each a pure-Python function (``*_py``) that numba compiles unchanged on first
 use (``*_nb`` via :func:`pc_kernel_nb` / :func:`rk_kernel_nb`, ``@njit(cache=True)``);
 nothing is compiled or even imported from numba at import time. Both read the packed
@@ -128,6 +131,112 @@ def _fold(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...]]:
 
 
 _ACCEL_SMOOTH, _FRICTION_PAIR, _FOLDED = _fold(tuple(T.TERMS.values()))
+
+
+# --- their partial derivatives, folded from the declared Term.dfn the same way ------------
+# grad_smooth(theta, st, ct, omega, t, k, kn) -> (d alpha_smooth/d theta, d alpha_smooth/d omega,
+# dcs) with dcs the tuple of d alpha/d c over the smooth slots (in GRAD_SLOTS order);
+# grad_friction(w, k, kn) -> (sum of dm/dw, dcf) with dcf the tuple of dm/dc over the friction
+# slots. Tuples, not an output array: the folds then pass only scalars, as the value folds do.
+# A term whose first slot is 0 (absent, unless ``always``) adds nothing to the theta/omega
+# partials and is not evaluated (its slot derivatives are 0) -- unless ``kn[lo]`` is non-zero
+# (``kn``: 1 at the differentiated slots): at C3 = 0 the derivative by C3 is not 0, and a fit may
+# sit on that bound. Its other slots' derivatives are then 0 as given, every term's
+# contribution being proportional to its first slot (pendtrack.models.declare).
+
+def _grad_smooth_add(rest, dfn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    zeros = (0.0,) * (hi - lo)
+    if rest is None:
+        def grad_first(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+            return dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+        return grad_first
+    if always:
+        def grad_always(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+            a_th, a_om, dcs = rest(theta, sin_theta, cos_theta, omega, t, k, kn)
+            d_th, d_om, dc = dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+            return a_th + d_th, a_om + d_om, dcs + dc
+        return grad_always
+
+    def grad(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN202
+        a_th, a_om, dcs = rest(theta, sin_theta, cos_theta, omega, t, k, kn)
+        dc = zeros
+        if k[lo] != 0.0 or kn[lo] != 0.0:
+            d_th, d_om, dc = dfn(theta, sin_theta, cos_theta, omega, t, k[lo:hi])
+            if k[lo] != 0.0:
+                a_th = a_th + d_th
+                a_om = a_om + d_om
+        return a_th, a_om, dcs + dc
+    return grad
+
+
+def _grad_friction_add(rest, dfn, lo, hi, always=False):  # noqa: ANN001, ANN202
+    zeros = (0.0,) * (hi - lo)
+    if rest is None and always:
+        def grad_first(w, k, kn):  # noqa: ANN001, ANN202
+            return dfn(w, k[lo:hi])
+        return grad_first
+    if always:
+        def grad_always(w, k, kn):  # noqa: ANN001, ANN202
+            dm, dcf = rest(w, k, kn)
+            d_w, dc = dfn(w, k[lo:hi])
+            return dm + d_w, dcf + dc
+        return grad_always
+
+    def grad(w, k, kn):  # noqa: ANN001, ANN202
+        dm, dcf = rest(w, k, kn)
+        dc = zeros
+        if k[lo] != 0.0 or kn[lo] != 0.0:
+            d_w, dc = dfn(w, k[lo:hi])
+            if k[lo] != 0.0:
+                dm = dm + d_w
+        return dm, dcf + dc
+    return grad
+
+
+def _fold_grad(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, ...], tuple[int, ...], tuple[int, ...]]:
+    """``(grad_smooth, grad_friction, every function made, smooth slots, friction slots)``
+    from the declarations' ``dfn``; the slot tuples give the order of ``dcs`` and ``dcf``."""
+    lay = T.LAYOUT
+    made: list[object] = []
+    smooth = _grad_smooth_add(None, lay.base.dfn, *lay.span(lay.base), always=True)
+    made.append(smooth)
+    slots_s = list(range(*lay.span(lay.base)))
+    friction = None
+    slots_f: list[int] = []
+    ordered = sorted((t for t in terms if t.dfn is not None and t.kind == "friction"), key=lambda t: not t.always)
+    for term in (*(t for t in terms if t.dfn is not None and t.kind == "smooth"), *ordered):
+        if term.kind == "smooth":
+            smooth = _grad_smooth_add(smooth, term.dfn, *lay.span(term), always=term.always)
+            made.append(smooth)
+            slots_s.extend(range(*lay.span(term)))
+        else:  # the first friction term must be an ``always`` one (it starts the tuple): sorted so
+            friction = _grad_friction_add(friction, term.dfn, *lay.span(term), always=term.always)
+            made.append(friction)
+            slots_f.extend(range(*lay.span(term)))
+    return smooth, friction, tuple(made), tuple(slots_s), tuple(slots_f)
+
+
+_GRAD_SMOOTH, _GRAD_FRICTION, _GRAD_FOLDED, GRAD_SLOTS_SMOOTH, GRAD_SLOTS_FRICTION = _fold_grad(tuple(T.TERMS.values()))
+# where slot i's derivative is: GRAD_KIND[i] = 1 in dcs, 2 in dcf (0: no formula), at GRAD_POS[i]
+GRAD_KIND = np.zeros(T.N_COEFFS, dtype=np.int64)
+GRAD_POS = np.zeros(T.N_COEFFS, dtype=np.int64)
+for _pos, _slot in enumerate(GRAD_SLOTS_SMOOTH):
+    GRAD_KIND[_slot], GRAD_POS[_slot] = 1, _pos
+for _pos, _slot in enumerate(GRAD_SLOTS_FRICTION):
+    GRAD_KIND[_slot], GRAD_POS[_slot] = 2, _pos
+
+
+def grad_smooth(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
+    """Partials of :func:`accel_smooth`: ``(d/dtheta, d/domega, dcs)`` [1/s^2, 1/s], ``dcs`` the
+    derivatives by the smooth slots (:data:`GRAD_SLOTS_SMOOTH` order). Folded from the ``dfn``."""
+    return _GRAD_SMOOTH(theta, sin_theta, cos_theta, omega, t, k, kn)
+
+
+def grad_friction(w, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
+    """``(dm/dw, dcf)`` of the sgn friction at ``w = |omega|`` (its alpha is ``-s m(w)``, so
+    ``d alpha/d omega = -dm/dw``, ``d alpha/d c = -s dm/dc``); ``dcf`` by the friction slots
+    (:data:`GRAD_SLOTS_FRICTION` order)."""
+    return _GRAD_FRICTION(w, k, kn)
 
 
 def accel_smooth(theta, sin_theta, omega, t, k):  # noqa: ANN001, ANN201 (numba-compiled)
@@ -312,6 +421,321 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
         ti = t_start + (i + 1) * h
         out_theta[i + 1] = theta
         out_omega[i + 1] = omega
+        if s == 0.0:
+            out_alpha[i + 1] = 0.0
+        else:
+            out_alpha[i + 1] = accel_terms(theta, math.sin(theta), omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
+
+
+def accel_grad(theta, st, omega, t, s, k, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+    """Partials of the memory-free acceleration at one point with the sgn terms at direction s.
+
+    ``st = sin(theta)``; ``kn``: 1 at the differentiated slots (:func:`grad_smooth`). Returns
+    ``(d alpha/d theta, d alpha/d omega)``; writes ``g[j] = sum_u (d alpha/d c_u) (d c_u/d p_j)``
+    over the slots ``slot_index`` (``dcoeffs[u, j]``, from
+    :meth:`~pendtrack.models.declare.Layout.pack_jacobian`). At ``omega == 0`` exactly the
+    friction's omega-derivative (infinite for a sub-linear friction) is taken as 0: the
+    sensitivity kernel evaluates there only at the start of a segment pinned to omega = 0 by
+    an event, where the omega-sensitivity is 0 by construction (:func:`rk_sens_kernel_py`).
+    """
+    ct = math.cos(theta)
+    a_th, a_om, dcs = grad_smooth(theta, st, ct, omega, t, k, kn)
+    dmw, dcf = grad_friction(abs(omega), k, kn)
+    if omega != 0.0:
+        a_om = a_om - dmw
+    for j in range(g.shape[0]):
+        g[j] = 0.0
+    for u in range(slot_index.shape[0]):
+        i = slot_index[u]
+        kind = GRAD_KIND[i]
+        if kind == 1:
+            v = dcs[GRAD_POS[i]]
+        elif kind == 2:
+            v = -s * dcf[GRAD_POS[i]]
+        else:
+            continue
+        for j in range(g.shape[0]):
+            g[j] += v * dcoeffs[u, j]
+    return a_th, a_om
+
+
+def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_sth, out_som,
+                  kn, slot_index, dcoeffs, g, w):  # noqa: ANN001, ANN201
+    """:func:`rk4_step` (same arithmetic) and the derivative of its result by the parameters.
+
+    ``sth, som`` [rad/p, rad/s/p]: d theta/d p_j, d omega/d p_j at the start; the step's
+    derivatives (the RK4 stages differentiated, i.e. RK4 on the variational equations, exact
+    for the discrete map at fixed dt) go to ``out_sth, out_som`` (may alias ``sth, som``).
+    ``w``: scratch, shape ``(4, P)``. Returns ``(theta, omega)`` after the step.
+    """
+    n_p = sth.shape[0]
+    k1t = omega
+    s1 = math.sin(theta)
+    k1w = accel_terms(theta, s1, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    a_th, a_om = accel_grad(theta, s1, omega, t, s, k, kn, slot_index, dcoeffs, g)
+    for j in range(n_p):  # w[0]: dk1t = som, w[1]: dk1w; w[2], w[3]: the next stage's state derivatives
+        w[0, j] = a_th * sth[j] + a_om * som[j] + g[j]  # dk1w
+    th2 = theta + 0.5 * dt * k1t
+    w2 = omega + 0.5 * dt * k1w
+    tm = t + 0.5 * dt
+    fm = forcing_at(forcing, tm, t_start, h)
+    k2t = w2
+    s2 = math.sin(th2)
+    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
+    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    for j in range(n_p):
+        d_th2 = sth[j] + 0.5 * dt * som[j]
+        d_w2 = som[j] + 0.5 * dt * w[0, j]
+        w[1, j] = d_w2  # dk2t
+        w[2, j] = a_th * d_th2 + a_om * d_w2 + g[j]  # dk2w
+    th3 = theta + 0.5 * dt * k2t
+    w3 = omega + 0.5 * dt * k2w
+    k3t = w3
+    s3 = math.sin(th3)
+    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
+    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    for j in range(n_p):
+        d_th3 = sth[j] + 0.5 * dt * w[1, j]
+        d_w3 = som[j] + 0.5 * dt * w[2, j]
+        dk3w = a_th * d_th3 + a_om * d_w3 + g[j]
+        # accumulate the weighted sums in place: w[0] <- dk1w + 2 dk2w + 2 dk3w, w[1] <- dk1t + 2 dk2t + 2 dk3t
+        w[0, j] = w[0, j] + 2.0 * w[2, j] + 2.0 * dk3w
+        w[1, j] = som[j] + 2.0 * w[1, j] + 2.0 * d_w3
+        w[2, j] = d_w3  # dk3t
+        w[3, j] = dk3w
+    th4 = theta + dt * k3t
+    w4 = omega + dt * k3w
+    k4t = w4
+    s4 = math.sin(th4)
+    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    for j in range(n_p):
+        d_th4 = sth[j] + dt * w[2, j]
+        d_w4 = som[j] + dt * w[3, j]
+        dk4w = a_th * d_th4 + a_om * d_w4 + g[j]
+        new_th = sth[j] + dt * (w[1, j] + d_w4) / 6.0
+        new_om = som[j] + dt * (w[0, j] + dk4w) / 6.0
+        out_sth[j] = new_th
+        out_som[j] = new_om
+    return (theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0,
+            omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0)
+
+
+def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+    """``(d theta, d omega)`` of :func:`rk4_step`'s result by its step length ``dt``, the start state fixed.
+
+    The stages differentiated by dt (the right-hand side's explicit time-dependence, the
+    ``C4/(t - t0)`` term's and the forcing's, is neglected). It replaces the exact flow's
+    ``f(end)`` at the events: with a sub-linear friction (``|omega|^p``, p < 1; the quarter-power
+    term) the RK4 step that leaves omega = 0 differs from the flow by far more than its usual
+    O(dt^5) (the friction's omega-derivative is singular there), and its own derivative is
+    what the discrete solution has (``f(end)`` instead was 15 % off in the Jacobian, measured).
+    """
+    k1t = omega
+    s1 = math.sin(theta)
+    k1w = accel_terms(theta, s1, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    th2 = theta + 0.5 * dt * k1t
+    w2 = omega + 0.5 * dt * k1w
+    tm = t + 0.5 * dt
+    fm = forcing_at(forcing, tm, t_start, h)
+    k2t = w2
+    s2 = math.sin(th2)
+    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
+    d_th2 = 0.5 * k1t
+    d_w2 = 0.5 * k1w
+    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    d_k2t = d_w2
+    d_k2w = a_th * d_th2 + a_om * d_w2
+    th3 = theta + 0.5 * dt * k2t
+    w3 = omega + 0.5 * dt * k2w
+    k3t = w3
+    s3 = math.sin(th3)
+    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
+    d_th3 = 0.5 * k2t + 0.5 * dt * d_k2t
+    d_w3 = 0.5 * k2w + 0.5 * dt * d_k2w
+    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    d_k3t = d_w3
+    d_k3w = a_th * d_th3 + a_om * d_w3
+    th4 = theta + dt * k3t
+    w4 = omega + dt * k3w
+    k4t = w4
+    s4 = math.sin(th4)
+    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    d_th4 = k3t + dt * d_k3t
+    d_w4 = k3w + dt * d_k3w
+    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    d_k4t = d_w4
+    d_k4w = a_th * d_th4 + a_om * d_w4
+    return ((k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0 + dt * (2.0 * d_k2t + 2.0 * d_k3t + d_k4t) / 6.0,
+            (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0 + dt * (2.0 * d_k2w + 2.0 * d_k3w + d_k4w) / 6.0)
+
+
+def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
+                      dtheta0, domega0, out_theta, out_omega, out_alpha, out_dtheta, out_domega):  # noqa: ANN001, ANN201
+    """:func:`rk_kernel_py` plus the forward sensitivities d theta/d p_j, d omega/d p_j.
+
+    The trajectory is computed by the same arithmetic as :func:`rk_kernel_py` (same sub-steps,
+    same events); beside it every RK4 step is differentiated (the stages' derivatives: the
+    exact derivative of the discrete step), with the acceleration's partials folded from the
+    declared ``dfn`` of the terms (:func:`accel_grad`).
+
+    Parameters
+    ----------
+    coeffs : float64 array, packed model (no memory term)
+    slot_index : int64 array (U,), the slots whose derivatives by the parameters are not all 0
+    dcoeffs : float64 array (U, P), ``d coeffs[slot_index[u]] / d p_j`` (:meth:`Layout.pack_jacobian`)
+    n_steps, h, t_start, theta0, omega0, substeps, forcing : as :func:`rk_kernel_py`
+    dtheta0, domega0 : float64 arrays (P,), derivatives of the initial state by the parameters
+        (a unit vector for the columns of theta0 and omega0, else 0)
+    out_theta, out_omega, out_alpha : float64 arrays (>= n_steps + 1,), as :func:`rk_kernel_py`
+    out_dtheta, out_domega : float64 arrays (>= n_steps + 1, P) [rad / p_j], [rad/s / p_j]
+
+    Notes
+    -----
+    **Events** (omega changes sign within a sub-step at tau). The state there is pinned,
+    ``omega(tau) = 0``, and tau depends on the parameters: ``d tau/dp = -S_omega^- / E_omega``
+    (``S_omega^-`` the omega-sensitivity of the RK4 step of length tau, ``E_omega`` the
+    derivative of that step's omega by its length, :func:`rk4_length_derivative`; ``S_theta``
+    gets ``E_theta d tau/dp``). The segment after it starts from ``(theta(tau), 0)`` with the
+    sensitivities ``(S_theta, 0)`` and remembers ``d tau/dp``; a later event in the segment adds
+    it to its own time; at the sub-step's end the segment is shorter by ``d tau/dp``:
+    ``S -= E(end) d tau/dp`` with the step-length derivative of the segment's step. For the exact
+    flow ``E = f = (omega, alpha)``, and this is the classical jump ``S_omega^+ = S_omega^-
+    alpha^+/alpha^-`` of sensitivities at a switching surface (with Coulomb friction
+    ``alpha^+ != alpha^-``, so it matters); the discrete step's own E keeps the result the exact
+    derivative of the discrete solution, and the friction's omega-derivative (infinite at
+    omega = 0 for a sub-linear friction) is never multiplied by a non-zero sensitivity: at a
+    pinned start :func:`accel_grad` sets it to 0, and the sensitivity it multiplies is 0. The
+    right-hand side's explicit time-dependence (the ``C4/(t - t0)`` term, a forcing) is left
+    out of E (measured: classic plus that term, t - t0 >= 5 s, within 1e-6 of central
+    differences). A pendulum that sticks (static friction holds it) keeps ``S_omega = 0`` and a
+    constant ``S_theta``; unsticking (only with a time-dependent forcing) is not differentiated.
+    At ``omega0 = 0`` exactly the solution is not differentiable in
+    ``omega0`` (the initial direction switches); the kernel then gives one side's derivative.
+    """
+    c = coeffs
+    kc = unpack(c)
+    n_p = dtheta0.shape[0]
+    need = np.zeros(c.shape[0])  # 1 at the differentiated slots (grad_smooth: amplitudes at 0 still differentiated)
+    for u in range(slot_index.shape[0]):
+        need[slot_index[u]] = 1.0
+    kn = unpack(need)
+    g = np.zeros(n_p)
+    w = np.zeros((4, n_p))
+    sth = dtheta0.copy()
+    som = domega0.copy()
+    delta = np.zeros(n_p)  # d(start time of the current segment)/dp, when it starts pinned at an event
+    hs = h / substeps
+    theta = theta0
+    omega = omega0
+    s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
+    if s == 0.0:
+        omega = 0.0
+        for j in range(n_p):
+            som[j] = 0.0
+    out_theta[0] = theta
+    out_omega[0] = omega
+    out_alpha[0] = 0.0 if s == 0.0 else (
+        accel_terms(theta, math.sin(theta), omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+    for j in range(n_p):
+        out_dtheta[0, j] = sth[j]
+        out_domega[0, j] = som[j]
+    for i in range(n_steps):
+        for jj in range(substeps):
+            t = t_start + i * h + jj * hs
+            t_end = t + hs
+            remaining = hs
+            shifted = False
+            for _event in range(16):  # at most 16 direction changes within one sub-step
+                if s == 0.0:
+                    s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
+                    if s == 0.0:
+                        shifted = False
+                        for j in range(n_p):
+                            som[j] = 0.0
+                        break  # still stuck: theta, omega = 0 unchanged over this sub-step
+                th1, w1 = rk4_sens_step(theta, omega, t, remaining, s, kc, forcing, t_start, h, sth, som,
+                                        out_dtheta[i + 1], out_domega[i + 1], kn, slot_index, dcoeffs, g, w)
+                if s * w1 >= 0.0:
+                    if shifted:  # this segment started at an event: its start time (and length) move with p
+                        e_th, e_om = rk4_length_derivative(theta, omega, t, remaining, s, kc, forcing, t_start, h,
+                                                           kn, slot_index, dcoeffs, g)
+                    theta = th1
+                    omega = w1
+                    for j in range(n_p):
+                        sth[j] = out_dtheta[i + 1, j]
+                        som[j] = out_domega[i + 1, j]
+                        if shifted:  # the segment is shorter by d(start)/dp
+                            sth[j] -= e_th * delta[j]
+                            som[j] -= e_om * delta[j]
+                    shifted = False
+                    break
+                # omega changes sign inside: locate tau with omega(tau) = 0 (Illinois regula falsi)
+                ta = 0.0
+                fa = s * omega
+                tb = remaining
+                fb = s * w1
+                tc = remaining
+                thc = th1
+                wc = w1
+                side = 0
+                for _it in range(60):
+                    tc = (ta * fb - tb * fa) / (fb - fa)
+                    thc, wc = rk4_step(theta, omega, t, tc, s, kc, forcing, t_start, h)
+                    fc_ = s * wc
+                    if fc_ > 0.0:
+                        ta = tc
+                        fa = fc_
+                        if side == 1:
+                            fb *= 0.5
+                        side = 1
+                    elif fc_ < 0.0:
+                        tb = tc
+                        fb = fc_
+                        if side == -1:
+                            fa *= 0.5
+                        side = -1
+                    else:
+                        break
+                    if tb - ta <= 1e-15 * hs or abs(fc_) <= 1e-15:
+                        break
+                # the sensitivities at the event: the step to tau at fixed length, then tau's own
+                # dependence, d tau/dp = -S_omega / (d omega_end/d dt); the event's time moves by
+                # that plus the segment's start shift (the step's start time does not enter an
+                # autonomous step)
+                rk4_sens_step(theta, omega, t, tc, s, kc, forcing, t_start, h, sth, som, sth, som,
+                              kn, slot_index, dcoeffs, g, w)
+                e_th, e_om = rk4_length_derivative(theta, omega, t, tc, s, kc, forcing, t_start, h,
+                                                   kn, slot_index, dcoeffs, g)
+                for j in range(n_p):
+                    dtau = -som[j] / e_om if e_om != 0.0 else 0.0
+                    sth[j] += e_th * dtau
+                    delta[j] = (delta[j] + dtau) if shifted else dtau
+                    som[j] = 0.0
+                shifted = True
+                theta = thc
+                omega = 0.0
+                t = t + tc
+                remaining = remaining - tc
+                s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
+                if remaining <= 0.0:
+                    break
+            if shifted:  # an event at the sub-step's very end (or 16 of them): the pinned state's shift
+                if s != 0.0:
+                    e_th, e_om = rk4_length_derivative(theta, omega, t, max(t_end - t, 0.0), s, kc, forcing,
+                                                       t_start, h, kn, slot_index, dcoeffs, g)
+                    for j in range(n_p):
+                        sth[j] -= e_th * delta[j]
+                        som[j] -= e_om * delta[j]
+                else:
+                    for j in range(n_p):
+                        som[j] = 0.0
+        ti = t_start + (i + 1) * h
+        out_theta[i + 1] = theta
+        out_omega[i + 1] = omega
+        for j in range(n_p):
+            out_dtheta[i + 1, j] = sth[j]
+            out_domega[i + 1, j] = som[j]
         if s == 0.0:
             out_alpha[i + 1] = 0.0
         else:
@@ -612,18 +1036,31 @@ def _stamped(kernel, stamp):  # noqa: ANN001, ANN202
     return run
 
 
-def _compile() -> None:
-    """Register the helpers with numba, build both kernels and compile them (or load the cache).
+def _stamped_sens(kernel, stamp):  # noqa: ANN001, ANN202
+    """:func:`_stamped` for the sensitivity kernel's signature."""
+    def run(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
+            dtheta0, domega0, out_theta, out_omega, out_alpha, out_dtheta, out_domega):  # noqa: ANN001, ANN202
+        if stamp:  # always true: the reference puts the stamp into the closure
+            kernel(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
+                   dtheta0, domega0, out_theta, out_omega, out_alpha, out_dtheta, out_domega)
+    return run
+
+
+# error_model="numpy": no zero-division checks in the loops (packed models never divide by 0);
+# fastmath contract/arcp only (fused multiply-add, division by reciprocal): the per-step
+# dependency chain gets ~30 % shorter; no reassociation, no NaN/inf assumptions. The
+# twins then differ by rounding only (measured <= 4e-13 rad over 600 steps; test 1e-12)
+_OPTIONS = {"error_model": "numpy", "fastmath": {"contract", "arcp"}}
+
+
+def _register() -> None:
+    """Register the helpers with numba (once per process).
 
     The small per-step helpers -- the declared terms' formulas and their folds included --
-    are inlined at numba-IR level (a call each would cost more than the arithmetic); numba's
-    pedantic SSA check warns about inlined variables, which is harmless, so those warnings
-    are silenced during this one compilation.
+    are inlined at numba-IR level (a call each would cost more than the arithmetic).
     """
-    import warnings
-
-    from numba import njit
-    from numba.core.errors import NumbaIRAssumptionWarning
+    if "registered" in _NB:
+        return
     from numba.extending import overload, register_jitable
     from numba.np.unsafe.ndarray import to_fixed_tuple
 
@@ -636,26 +1073,42 @@ def _compile() -> None:
     # the folds of the declared formulas: ordinary calls that LLVM inlines (numba's IR-level
     # inlining of the nested folds would cost minutes of compilation)
     formulas = tuple(t.fn for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
-    for fn in (*formulas, *_FOLDED, _friction_seed):
+    derivatives = tuple(t.dfn for t in (T.BASE, *T.TERMS.values()) if t.dfn is not None)
+    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED):
         register_jitable(fn)
     for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
-               memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after):
+               memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, grad_smooth, grad_friction):
         register_jitable(inline="always")(fn)
-    for fn in (direction, rk4_step):  # larger: ordinary calls (inlining them costs compile time)
+    for fn in (direction, rk4_step, rk4_length_derivative):  # larger: ordinary calls (inlining costs compile time)
         register_jitable(fn)
+    # the sensitivity step and its partials pass arrays: inlined, so that no call passes (and
+    # reference-counts) them per stage (3x faster, measured)
+    register_jitable(inline="always")(accel_grad)
+    register_jitable(inline="always")(rk4_sens_step)
     register_jitable(fastmath=True)(gl_dot)
     register_jitable(binomial_series)
     register_jitable(gl_weights)
-    # error_model="numpy": no zero-division checks in the loops (packed models never divide by 0);
-    # fastmath contract/arcp only (fused multiply-add, division by reciprocal): the per-step
-    # dependency chain gets ~30 % shorter; no reassociation, no NaN/inf assumptions. The
-    # twins then differ by rounding only (measured <= 4e-13 rad over 600 steps; test 1e-12)
-    options = {"error_model": "numpy", "fastmath": {"contract", "arcp"}}
+    for kernel in (rk_kernel_py, pc_kernel_py, rk_sens_kernel_py):
+        register_jitable(**_OPTIONS)(kernel)
+    _NB["registered"] = True
+
+
+def _compile() -> None:
+    """Register the helpers with numba, build both kernels and compile them (or load the cache).
+
+    numba's pedantic SSA check warns about inlined variables, which is harmless, so those
+    warnings are silenced during this one compilation.
+    """
+    import warnings
+
+    from numba import njit
+    from numba.core.errors import NumbaIRAssumptionWarning
+
+    _register()
     stamp = declarations_stamp()
     compiled = {}
     for name, kernel in (("rk", rk_kernel_py), ("pc", pc_kernel_py)):
-        register_jitable(**options)(kernel)
-        compiled[name] = njit(cache=True, **options)(_stamped(kernel, stamp))
+        compiled[name] = njit(cache=True, **_OPTIONS)(_stamped(kernel, stamp))
     c = np.asarray(empty_coeffs())
     c[K_HAS_MEMORY] = 1.0
     out = np.zeros(3)
@@ -664,6 +1117,28 @@ def _compile() -> None:
         for kern in compiled.values():
             kern(c, 1, 0.1, 0.0, 0.1, 0.0, 1, np.zeros(0), out, out, out)
     _NB.update(compiled)
+
+
+def rk_sens_kernel_nb():  # noqa: ANN201
+    """The numba-compiled :func:`rk_sens_kernel_py` (compiled, or loaded from cache, on first call)."""
+    if "rk_sens" not in _NB:
+        import warnings
+
+        from numba import njit
+        from numba.core.errors import NumbaIRAssumptionWarning
+
+        _register()
+        kern = njit(cache=True, **_OPTIONS)(_stamped_sens(rk_sens_kernel_py, declarations_stamp()))
+        c = np.asarray(empty_coeffs())
+        c[T.K_SIN] = 1.0
+        out = np.zeros(3)
+        d = np.zeros((3, 1))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
+            kern(c, np.zeros(1, dtype=np.int64), np.zeros((1, 1)), 1, 0.1, 0.0, 0.1, 0.0, 1, np.zeros(0),
+                 np.zeros(1), np.zeros(1), out, out, out, d, d)
+        _NB["rk_sens"] = kern
+    return _NB["rk_sens"]
 
 
 def rk_kernel_nb():  # noqa: ANN201

@@ -40,7 +40,7 @@ from pendtrack.models.registry import Model, get_model
 from pendtrack.models.terms import K_HAS_MEMORY, K_LIN, K_SIN
 from pendtrack.models.timegrid import UNIFORM_RTOL, check_time, is_uniform, memory_steps_for
 
-__all__ = ["SimResult", "simulate", "simulate_packed", "default_substeps", "pc_substeps", "check_time", "is_uniform",
+__all__ = ["SimResult", "simulate", "simulate_packed", "simulate_sensitivities", "default_substeps", "pc_substeps", "check_time", "is_uniform",
            "memory_steps_for", "UNIFORM_RTOL"]
 
 _EMPTY = np.zeros(0)
@@ -179,6 +179,53 @@ def simulate_packed(coeffs: np.ndarray, n_steps: int, h: float, theta0: float, o
         k = substeps if substeps > 0 else default_substeps(coeffs, h)
         kern = kernels.rk_kernel_py if python else kernels.rk_kernel_nb()
         kern(coeffs, n_steps, h, t_start, theta0, omega0, k, f, out_theta, out_omega, out_alpha)
+
+
+def simulate_sensitivities(coeffs: np.ndarray, dcoeffs: np.ndarray, n_steps: int, h: float, theta0: float,
+                           omega0: float, dtheta0: np.ndarray, domega0: np.ndarray, *, t_start: float = 0.0,
+                           substeps: int = 0, python: bool = False
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A memory-free simulation and its forward sensitivities (:func:`kernels.rk_sens_kernel_py`).
+
+    Parameters
+    ----------
+    coeffs : numpy.ndarray
+        float64 packed model without the memory term (:meth:`Model.pack`).
+    dcoeffs : numpy.ndarray
+        ``(N_COEFFS, P)``: ``d coeffs / d p_j`` for the P parameters differentiated by
+        (:meth:`pendtrack.models.declare.Layout.pack_jacobian`; zero columns for the initial state).
+    n_steps, h, theta0, omega0, t_start, substeps
+        As :func:`simulate_packed` (``substeps=0``: :func:`default_substeps`).
+    dtheta0, domega0 : numpy.ndarray
+        ``(P,)``: derivatives of the initial angle [rad] and angular velocity [rad/s] by each parameter.
+    python : bool
+        Run the pure-Python twin (slow; for tests).
+
+    Returns
+    -------
+    theta, omega : numpy.ndarray
+        ``(n_steps + 1,)`` [rad], [rad/s], identical to :func:`simulate_packed`'s.
+    dtheta, domega : numpy.ndarray
+        ``(n_steps + 1, P)``: d theta/d p_j [rad/unit of p_j], d omega/d p_j [rad/s/unit of p_j].
+    """
+    if coeffs[K_HAS_MEMORY] != 0.0:
+        raise ModelError("sensitivities are computed for models without memory only")
+    dcoeffs = np.asarray(dcoeffs, dtype=np.float64)
+    used = np.flatnonzero(np.any(dcoeffs != 0.0, axis=1)).astype(np.int64)
+    dc = np.ascontiguousarray(dcoeffs[used])
+    n_p = dcoeffs.shape[1]
+    k = substeps if substeps > 0 else default_substeps(coeffs, h)
+    th = np.empty(n_steps + 1)
+    om = np.empty(n_steps + 1)
+    al = np.empty(n_steps + 1)
+    dth = np.empty((n_steps + 1, n_p))
+    dom = np.empty((n_steps + 1, n_p))
+    kern = kernels.rk_sens_kernel_py if python else kernels.rk_sens_kernel_nb()
+    with np.errstate(all="ignore"):  # the Python twin on numpy scalars: absent terms' 0/0 are never used
+        kern(np.ascontiguousarray(coeffs, dtype=np.float64), used, dc, n_steps, h, t_start, float(theta0),
+             float(omega0), k, _EMPTY, np.asarray(dtheta0, dtype=np.float64).copy(),
+             np.asarray(domega0, dtype=np.float64).copy(), th, om, al, dth, dom)
+    return th, om, dth, dom
 
 
 def simulate(model: Model | str, params: Mapping[str, float], t: Any, *, theta0: float, omega0: float,

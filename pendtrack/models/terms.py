@@ -82,6 +82,49 @@ def _quarter_friction(w, c):  # noqa: ANN001, ANN201
     return amp * r4, (0.8 * amp * w) * r4  # (0.8 amp w) is ready before the root (off the critical path)
 
 
+# --- their partial derivatives (Term.dfn; pendtrack.models.declare): smooth terms
+# (d/dtheta, d/domega, (d/dc...)), friction terms (dm/dw, (dm/dc...)); finite at w = 0 except dm/dw
+
+def _gravity_d(theta, sin_theta, cos_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return -c[0] * cos_theta - c[1], 0.0 * omega, (-sin_theta, -theta)
+
+
+def _viscous_d(theta, sin_theta, cos_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return 0.0 * theta, -c[0] + 0.0 * omega, (-omega,)
+
+
+def _added_mass_d(theta, sin_theta, cos_theta, omega, t, c):  # noqa: ANN001, ANN201
+    return c[0] * omega * omega * cos_theta, 2.0 * c[0] * omega * sin_theta, (omega * omega * sin_theta,)
+
+
+def _time_varying_damping_d(theta, sin_theta, cos_theta, omega, t, c):  # noqa: ANN001, ANN201
+    r = 1.0 / (t - c[1])
+    return 0.0 * theta, -c[0] * r + 0.0 * omega, (-omega * r, -c[0] * omega * r * r)
+
+
+def _coulomb_d(w, c):  # noqa: ANN001, ANN201
+    return 0.0 * w, (1.0 + 0.0 * w,)
+
+
+def _quadratic_drag_d(w, c):  # noqa: ANN001, ANN201
+    return 2.0 * c[0] * w, (w * w,)
+
+
+def _power_drag_d(w, c):  # noqa: ANN001, ANN201
+    amp, exponent, scale = c
+    x = w * scale
+    y = x ** exponent
+    xs = np.maximum(x, 1e-300)  # 0 * ln(tiny) = 0 and 0 / tiny = 0 at w = 0, no exception, no second pow
+    # dm/dw = amp p y / w (at w = 0 it is 0 here; the kernel does not use it there), dm/dp = y ln x
+    return amp * exponent * scale * y / xs, (y, amp * y * np.log(xs), amp * exponent * y / scale)
+
+
+def _quarter_friction_d(w, c):  # noqa: ANN001, ANN201
+    amp, scale = c
+    r4 = np.sqrt(np.sqrt(w * scale))
+    return 0.25 * amp * scale / (r4 * r4 * r4), (r4, 0.25 * amp * r4 / scale)
+
+
 def _offset(theta, c):  # noqa: ANN001, ANN201
     return theta + c[0]
 
@@ -106,7 +149,7 @@ BASE = Term(
     "gravity", "base", (_p("Omega0", "rad/s", 0.0, INF, True, True, "natural angular frequency, eq. NatOmega0"),),
     "-Omega0^2 sin(theta)", "basemodel1",
     slots=(Slot("SIN", 0.0, "Omega0^2 [1/s^2]"), Slot("LIN", 0.0, "linear restoring coefficient [1/s^2]")),
-    pack=lambda p: {"SIN": p["Omega0"] * p["Omega0"]}, fn=_gravity)
+    pack=lambda p: {"SIN": p["Omega0"] * p["Omega0"]}, fn=_gravity, dfn=_gravity_d)
 
 #: The term catalogue, in canonical order (parameter order of models, slot order).
 CATALOGUE: dict[str, Term] = {
@@ -114,30 +157,30 @@ CATALOGUE: dict[str, Term] = {
     for t in (
         Term("viscous", "smooth", (_positive("C1", "1/s", "viscous (Stokes) coefficient, eq. standarddiss"),),
              "-C1 omega", "standarddiss",
-             slots=(Slot("VISC"),), pack=lambda p: {"VISC": p["C1"]}, fn=_viscous, always=True),
+             slots=(Slot("VISC"),), pack=lambda p: {"VISC": p["C1"]}, fn=_viscous, dfn=_viscous_d, always=True),
         Term("coulomb", "friction",
              (_positive("C0", "rad/s^2", "Coulomb dry friction, eqs. standarddiss/classicmodel"),),
              "-C0 sgn(omega)", "standarddiss",
              slots=(Slot("COUL", 0.0, "C0 + 2 Omega0 C5"),), pack=lambda p: {"COUL": p["C0"]}, fn=_coulomb,
-             always=True),
+             dfn=_coulomb_d, always=True),
         Term("quadratic_drag", "friction", (_positive("C2", "1/rad", "quadratic (Newton) drag, eq. standarddiss"),),
              "-C2 omega |omega|", "standarddiss",
-             slots=(Slot("QUAD"),), pack=lambda p: {"QUAD": p["C2"]}, fn=_quadratic_drag, always=True),
+             slots=(Slot("QUAD"),), pack=lambda p: {"QUAD": p["C2"]}, fn=_quadratic_drag, dfn=_quadratic_drag_d, always=True),
         Term("power_drag", "friction",
              (_positive("C3", "rad/s^2", "power-law drag amplitude, eq. powerlawdiss"),
               _p("p", "1", 0.0, INF, True, True, "power-law exponent, eq. powerlawdiss")),
              "-C3 |omega/Omega0|^p sgn(omega)", "powerlawdiss",
              slots=(Slot("POW"), Slot("POW_EXP", 1.0), Slot("POW_SCALE", 1.0, "1/Omega0")),
-             pack=lambda p: {"POW": p["C3"], "POW_EXP": p["p"], "POW_SCALE": 1.0 / p["Omega0"]}, fn=_power_drag),
+             pack=lambda p: {"POW": p["C3"], "POW_EXP": p["p"], "POW_SCALE": 1.0 / p["Omega0"]}, fn=_power_drag, dfn=_power_drag_d),
         Term("added_mass", "smooth", (_positive("Ca", "1", "added-mass coefficient, eq. ainerdef"),),
              "+Ca omega^2 sin(theta)", "ainerdef",
-             slots=(Slot("ADDED"),), pack=lambda p: {"ADDED": p["Ca"]}, fn=_added_mass, always=True),
+             slots=(Slot("ADDED"),), pack=lambda p: {"ADDED": p["Ca"]}, fn=_added_mass, dfn=_added_mass_d, always=True),
         Term("time_varying_damping", "smooth",
              (_positive("C4", "1", "time-varying laminar damping, eq. newDNHM"),
               _p("t0", "s", -INF, INF, True, True, "time origin of the C4/(t - t0) damping (must be < t[0]), eq. newDNHM")),
              "-C4 omega/(t - t0)", "newDNHM",
              slots=(Slot("TV"), Slot("TV_T0", -INF)), pack=lambda p: {"TV": p["C4"], "TV_T0": p["t0"]},
-             fn=_time_varying_damping, domain=_t0_before),
+             fn=_time_varying_damping, dfn=_time_varying_damping_d, domain=_t0_before),
         Term("opa_coulomb", "friction",
              (_positive("C5", "1/s", "OPA Coulomb coefficient (acts as 2 Omega0 C5), eq. newDNHM"),),
              "-2 Omega0 C5 sgn(omega)", "newDNHM",
@@ -146,7 +189,7 @@ CATALOGUE: dict[str, Term] = {
              "-4 Omega0^2 G1 |A_omega|^(1/4) sgn(A_omega), A_omega = omega/(2 Omega0)", "ourfinalmodel",
              slots=(Slot("QUARTER", 0.0, "4 Omega0^2 G1"), Slot("QUARTER_SCALE", 1.0, "1/(2 Omega0)")),
              pack=lambda p: {"QUARTER": 4.0 * p["Omega0"] * p["Omega0"] * p["G1"],
-                             "QUARTER_SCALE": 1.0 / (2.0 * p["Omega0"])}, fn=_quarter_friction),
+                             "QUARTER_SCALE": 1.0 / (2.0 * p["Omega0"])}, fn=_quarter_friction, dfn=_quarter_friction_d),
         # alpha -= K_MEM D^K_BETA_tau(g(omega)), g = x |x|^(K_PF - 1), x = omega/K_MEM_U, tau = K_TSCALE t;
         # K_HAS_MEMORY = 1 selects the paper's predictor-corrector (also with G2 = 0)
         Term("memory", "memory",
