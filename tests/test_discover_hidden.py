@@ -32,9 +32,10 @@ Singles, controls and artefacts measured with the final code; the pairs before e
 term was also tried with the physics held. Wall time of the default suite ~25 min at that load (the
 16 cases cost 20-140 s each): more than the few minutes asked for.
 
-The default (CI) suite runs 16 cases on 30 fps records (20-65 s: see the record sizes below;
-discovery's cost grows with the number of samples, and a 40-s 30 fps record is a sixth of a
-75-s 60 Hz analysis); the slow suite the 120 Hz cases and more of every kind.
+The default (CI) suite runs 10 cases on 30 fps records (controls and artefacts, 20-40 s; see the
+record sizes below: discovery's cost grows with the number of samples, and a 40-s 30 fps record is
+a sixth of a 75-s 60 Hz analysis); the 6 cases of the unmet bars (30 fps singles, pairs) run in the
+slow suite as strict xfails, with the 120 Hz cases and more of every kind.
 """
 
 from __future__ import annotations
@@ -129,6 +130,7 @@ def _check_measurement(outcomes: list[dict], bar: float = 0.9) -> None:
 # taken for memory -- memory's training fit predicted the held-out part better (gain 6.0 mrad, z 7.6)
 # than the true added-mass fit (3.9 mrad, z 2.8, below the z > 3 gate); 3 starts instead of 1 changed
 # nothing. 2/3 < 80 %: the bar is not met; strict, so the mark must go when it is.
+@pytest.mark.slow  # a known shortfall: its 3 cases cost minutes in the default suite for no new signal
 @pytest.mark.xfail(strict=True, reason="30 fps, 40 s: added mass taken for memory in 1 of 3 cases (see comment)")
 def test_single_effect_at_30fps():
     # every hidden effect once, 3-5 mrad noise: 3 cases
@@ -148,6 +150,7 @@ def test_controls_at_30fps():
 # (both pairs with added mass: memory's three parameters absorb Ca on 55-65 s at 30 fps), and with
 # memory kept, time-varying damping left the envelope off but no single effect earned its keep and
 # max_effects = 2 left no room for a pair. The bar is not met; strict, so the mark must go when it is.
+@pytest.mark.slow  # a known shortfall, as above
 @pytest.mark.xfail(strict=True, reason="pairs at 30 fps: added mass taken for memory (see comment)")
 def test_pairs_of_effects_at_30fps():
     # every pair of hidden effects once: 3 cases (two steps each)
@@ -162,6 +165,12 @@ def test_measurement_artefacts_at_30fps():
 
 
 # --- slow: the 120 Hz cases and more of every kind ------------------------------------------
+
+# The larger campaigns of the bars not met yet (expected to fail, ~30 min together on 2 cores): run
+# by hand with PENDTRACK_CAMPAIGN=1 (`PENDTRACK_CAMPAIGN=1 make test-slow`), not in CI, whose 90
+# minutes they would take for a figure the strict xfails above already state.
+CAMPAIGN = pytest.mark.skipif(not os.environ.get("PENDTRACK_CAMPAIGN"),
+                              reason="campaign of an unmet bar: set PENDTRACK_CAMPAIGN=1 to run it")
 
 @pytest.mark.slow
 def test_hidden_effect_default_cases():
@@ -178,6 +187,7 @@ def test_hidden_effect_twelve_cases():
 
 
 @pytest.mark.slow
+@CAMPAIGN
 @pytest.mark.xfail(strict=False, reason="not measured in full; the default run named added mass in 0 of 1 cases")
 def test_single_effect_at_30fps_twelve_cases():
     _check_single([_run_case(seed, k, max_effects=2 if k is None else 1, **SINGLE_30FPS)
@@ -185,6 +195,7 @@ def test_single_effect_at_30fps_twelve_cases():
 
 
 @pytest.mark.slow
+@CAMPAIGN
 @pytest.mark.xfail(strict=False, reason="not measured in full; 0 of 3 pair cases at 30 fps, and at 120 Hz (60 s) "
                    "added mass + memory gave memory then power drag")
 def test_pairs_of_effects_nine_cases():
