@@ -56,20 +56,31 @@ def _feature_levels(y: np.ndarray, u: np.ndarray, v: np.ndarray,
     half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
     bg = float(np.median(half))
     # noise from neighbour differences, blind to smooth lighting gradients
-    sigma = 1.4826 * float(np.median(np.abs(np.diff(half, axis=1)))) / np.sqrt(2) + 1e-6
+    sigma = 1.4826 * float(np.median(cv2.absdiff(half[:, 1:], half[:, :-1]))) / np.sqrt(2) + 1e-6
     return half, bg, max(MIN_CONTRAST, MIN_SIGMAS * sigma)
 
 
 def _compact_blobs(half: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]]:
     """Labels, stats and ``(label, mass)`` of the compact blobs of ``half > thr`` (see :func:`find_marker`)."""
-    n, labels, stats, _ = cv2.connectedComponentsWithStats((half > thr).astype(np.uint8), connectivity=8)
+    mask = (half > thr).astype(np.uint8)
     hh, hw = half.shape
+    labels = np.zeros((hh, hw), np.int32)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return labels, np.zeros((1, 5), np.int32), []
+    # label only the box holding every pixel above thr (often a few blobs in a corner of the frame: 4 ms saved
+    # per level at 1080p); the components, their order and their stats are those of the whole frame
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    n, labels[r0:r1, c0:c1], stats, _ = cv2.connectedComponentsWithStats(mask[r0:r1, c0:c1], connectivity=8)
+    stats[:, 0] += c0
+    stats[:, 1] += r0
     blobs = []
     for k in range(1, n):
         x, yb, w, h, area = stats[k]
         if w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h:
             continue
-        blobs.append((k, float((half[labels == k] - thr).sum())))
+        box = np.s_[yb:yb + h, x:x + w]  # the blob's bounding box: the mask of the whole frame costs 10x more
+        blobs.append((k, float((half[box][labels[box] == k] - thr).sum())))
     return labels, stats, blobs
 
 
@@ -147,8 +158,10 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
         labels, stats, blobs = _compact_blobs(work, thr)
         for k, _mass in blobs:
             if colour.uses_chroma:
-                sel = labels == k
-                du, dv = float(u[sel].mean()) - du0, float(v[sel].mean()) - dv0
+                bx, by, bw, bh = stats[k][:4]
+                box = np.s_[by:by + bh, bx:bx + bw]
+                sel = labels[box] == k
+                du, dv = float(u[box][sel].mean()) - du0, float(v[box][sel].mean()) - dv0
                 norm = np.hypot(du, dv) * np.hypot(colour.wu, colour.wv)
                 if norm <= 0 or (du * colour.wu + dv * colour.wv) / norm < cos_min:
                     continue
@@ -175,16 +188,18 @@ def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection 
     n, labels, stats, _ = cv2.connectedComponentsWithStats((f > thr).astype(np.uint8), connectivity=8)
     if n < 2:
         return None
-    k = 1 + int(np.argmax([(f[labels == i] - thr).sum() for i in range(1, n)]))
+    # each blob's mass above thr, in one pass (not a mask of the window per blob)
+    k = 1 + int(np.argmax(np.bincount(labels.ravel(), weights=(f - np.float32(thr)).ravel(), minlength=n)[1:]))
     area = float(stats[k, cv2.CC_STAT_AREA])
     radius = float(np.sqrt(area / np.pi))
     # weights: contrast over the background inside the blob grown by 2 px (soft edges count)
-    grown = cv2.dilate((labels == k).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    blob = labels == k
+    grown = cv2.dilate(blob.view(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     wgt = np.where(grown, np.clip(f - bg, 0, None), 0.0)
-    yy, xx = np.indices(f.shape)
     total = float(wgt.sum())
-    cx, cy = float((wgt * xx).sum() / total), float((wgt * yy).sum() / total)
-    contrast = float(np.median(f[labels == k])) - bg
+    cx = float(wgt.sum(axis=0) @ np.arange(f.shape[1]) / total)
+    cy = float(wgt.sum(axis=1) @ np.arange(f.shape[0]) / total)
+    contrast = float(np.median(f[blob])) - bg
     return Detection(x0 + cx, y0 + cy, radius, contrast, bg, colour)
 
 

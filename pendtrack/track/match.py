@@ -10,6 +10,7 @@ j + (th - 1) / 2)`` in window coordinates.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -144,6 +145,10 @@ def fill_reach(radius_px: float) -> int:
     return int(round(radius_px)) if radius_px >= 1.0 else 0
 
 
+_CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], np.uint8)  # cv2.MORPH_CROSS (3, 3)
+
+
+@lru_cache(maxsize=16)  # one marker size per track: built once, not per frame (read-only kernels)
 def _octagon_passes(k: int) -> tuple[np.ndarray | None, int]:
     """A near-regular octagon of inradius ``k`` as a square (half side ``k - b``) dilated ``b`` times by a
     3x3 cross, b = k / (1 + 1/sqrt(2)): OpenCV dilates by a square in separable passes and by the
@@ -191,7 +196,7 @@ def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = N
     # an octagon, not a disc, for speed (see _octagon_passes); nearly round, so the filling does not
     # depend on how the sticker has turned (a square's did: theta 1.89 instead of 1.44 mrad RMS)
     square, b = _octagon_passes(k)
-    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+    cross = _CROSS
     closed = feature if square is None else cv2.dilate(feature, square, borderType=cv2.BORDER_REPLICATE)
     closed = cv2.dilate(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)
     closed = cv2.erode(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)

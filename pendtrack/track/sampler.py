@@ -29,6 +29,7 @@ class RawSampler:
     """
 
     corrected = False
+    half_windows = True  # window_half gives windows in this sampler's coordinates (halved)
 
     def __init__(self, colour: MarkerColour, *, width: int, height: int) -> None:
         self.colour = colour
@@ -59,6 +60,31 @@ class RawSampler:
     def whole_half(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Feature of the whole frame at half resolution: sample ``(i, j)`` at ``(2i + 0.5, 2j + 0.5)``."""
         return half_resolution_feature(y, u, v, self.colour)
+
+    @property
+    def half_width(self) -> int:
+        """Columns of the half-resolution grid whose 2x2 luma blocks lie inside the frame."""
+        return self.width // 2
+
+    @property
+    def half_height(self) -> int:
+        """Rows of the half-resolution grid whose 2x2 luma blocks lie inside the frame."""
+        return self.height // 2
+
+    def window_half(self, y: np.ndarray, u: np.ndarray, v: np.ndarray, x0: int, y0: int, w: int,
+                    h: int) -> np.ndarray:
+        """Feature of a window of the half-resolution grid (h, w), float32, as :meth:`whole_half` computes it
+        (sample ``(i, j)`` at raw ``(2i + 0.5, 2j + 0.5)``: the chroma sample as it is, luma averaged over its
+        2x2 block) but touching only the window; it must lie inside ``half_width`` x ``half_height``."""
+        colour = self.colour
+        f = None
+        if colour.uses_chroma:
+            f = chroma_feature(u[y0:y0 + h, x0:x0 + w], v[y0:y0 + h, x0:x0 + w], colour)
+        if colour.uses_luma:
+            small = cv2.resize(y[2 * y0:2 * (y0 + h), 2 * x0:2 * (x0 + w)], (w, h), interpolation=cv2.INTER_AREA)
+            lum = np.float32(colour.wy) * (small.astype(np.float32) - np.float32(128.0))
+            f = lum if f is None else f + lum
+        return f
 
     def to_raw(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tracking coordinates -> raw frame coordinates (identity here)."""
@@ -91,6 +117,7 @@ class CorrectedSampler(RawSampler):
     """
 
     corrected = True
+    half_windows = False  # window_half would cut raw, not corrected, windows
 
     def __init__(self, colour: MarkerColour, *, fisheye: Fisheye, precompute: bool = True) -> None:
         super().__init__(colour, width=fisheye.width, height=fisheye.height)
@@ -194,6 +221,7 @@ class WarpedRawSampler(RawSampler):
     """
 
     warps_template = True
+    half_windows = False  # the template is warped per position at full resolution
 
     def __init__(self, colour: MarkerColour, *, fisheye: Fisheye, grid_px: int = 16) -> None:
         super().__init__(colour, width=fisheye.width, height=fisheye.height)

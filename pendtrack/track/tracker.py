@@ -64,6 +64,11 @@ ARC_TOL_PX = 1.0  # position noise of a candidate's detections (and at least 0.1
 ARC_MAX_RADIUS = 1.5  # a pendulum's arc has a radius below this many frame diagonals (its pivot is near the frame)
 ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
 ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
+# A marker of at least this radius [px] is matched on the half-resolution (chroma) grid of a raw frame (see
+# MarkerTracker): still >= 12 samples of radius there, more than the 960x540 sticker case (21 px radius at full
+# resolution, its chroma on a grid of half that) whose theta meets the target, and the filling and matching cost
+# a quarter to a sixth (measured on the 1080p blue ball, 43 px: 0.61 -> 0.14 ms filling, 0.32 -> 0.07 ms matching).
+HALF_RES_RADIUS_PX = 24.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -179,6 +184,9 @@ class TrackResult:
         The evolving template against the first: ``max_px`` (largest drift measured),
         ``reanchors`` (times it was shifted back), ``limit_px``, ``alarm`` (True when the
         limit was exceeded at least once).
+    match_scale : int
+        1: matched at full resolution; 2: on the half-resolution grid (a marker of at least
+        :data:`HALF_RES_RADIUS_PX`, see :class:`MarkerTracker`).
     """
 
     frame: np.ndarray
@@ -193,6 +201,7 @@ class TrackResult:
     searches: dict[str, int]
     acquisition: dict[str, object]
     drift: dict[str, object]
+    match_scale: int = 1
 
     @property
     def ok_fraction(self) -> float:
@@ -207,13 +216,14 @@ class TrackResult:
         return {"n_frames": int(self.frame.size), "n_ok": int(self.ok.sum()), "ok_fraction": self.ok_fraction,
                 "detection": self.detection.to_dict(), "template_size": self.template_size, "radius_px": self.radius,
                 "searches": dict(self.searches), "acquisition": dict(self.acquisition),
-                "template_drift": dict(self.drift)}
+                "template_drift": dict(self.drift), "match_scale": self.match_scale}
 
 
 class _Template:
     """The template (float32, odd square side) and what the centroid refinement needs."""
 
-    def __init__(self, image: np.ndarray, radius: float, contrast: float, background: float = 0.0) -> None:
+    def __init__(self, image: np.ndarray, radius: float, contrast: float, background: float = 0.0,
+                 half_image: np.ndarray | None = None) -> None:
         self.image = np.ascontiguousarray(image, dtype=np.float32)
         self.background = background
         self.std = float(self.image.std())
@@ -221,6 +231,9 @@ class _Template:
         self.radius = radius
         self.contrast = contrast
         self._small: np.ndarray | None = None
+        # the template cut from the half-resolution grid (a large marker, see HALF_RES_RADIUS_PX), or None
+        self.half_image = None if half_image is None else np.ascontiguousarray(half_image, dtype=np.float32)
+        self.half_std = 0.0 if half_image is None else float(self.half_image.std())  # type: ignore[union-attr]
 
     @property
     def small(self) -> np.ndarray:
@@ -256,27 +269,49 @@ def make_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     x1, y1 = int(np.floor(tx)) + pad + 2, int(np.floor(ty)) + pad + 2
     if x0 < 0 or y0 < 0 or x1 > sampler.width or y1 > sampler.height:
         raise TrackingError("the marker is too close to the frame's edge in the first frame")
-    win = filled_window(sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, hole_share * radius,
-                        det.background + 0.5 * det.contrast)
+    level = det.background + 0.5 * det.contrast
+    win = filled_window(sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, hole_share * radius, level)
     image = cv2.getRectSubPix(win, (side, side), (tx - x0, ty - y0))
-    return _Template(image, radius, det.contrast, det.background), tx, ty
+    return _Template(image, radius, det.contrast, det.background,
+                     half_image=_half_template(sampler, y, u, v, tx, ty, radius, hole_share, level)), tx, ty
+
+
+def _half_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarray, tx: float, ty: float,
+                   radius: float, hole_share: float, level: float) -> np.ndarray | None:
+    """The template cut from the half-resolution grid (odd side, centred on the marker), or None when the
+    marker is below :data:`HALF_RES_RADIUS_PX`, the sampler has no half-resolution windows or the template
+    does not fit in the frame. Grid sample ``(i, j)`` sits at raw ``(2i + 0.5, 2j + 0.5)``."""
+    if radius < HALF_RES_RADIUS_PX or not getattr(sampler, "half_windows", False):
+        return None
+    hx, hy = (tx - 0.5) / 2.0, (ty - 0.5) / 2.0
+    half = int(np.ceil(TEMPLATE_REACH * radius / 2.0)) + 1
+    pad = half + 3
+    x0, y0 = int(np.floor(hx)) - pad, int(np.floor(hy)) - pad
+    x1, y1 = int(np.floor(hx)) + pad + 2, int(np.floor(hy)) + pad + 2
+    if x0 < 0 or y0 < 0 or x1 > sampler.half_width or y1 > sampler.half_height:
+        return None
+    win = filled_window(sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, hole_share * radius / 2.0, level, half=True)
+    return cv2.getRectSubPix(win, (2 * half + 1, 2 * half + 1), (hx - x0, hy - y0))
 
 
 def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarray, x0: int, y0: int, w: int,
-                  h: int, radius_px: float, level: float) -> np.ndarray:
+                  h: int, radius_px: float, level: float, *, half: bool = False) -> np.ndarray:
     """The sampler's feature window with the marker's dips filled (:func:`pendtrack.track.match.fill_holes`).
 
     The closing runs on a window grown by its reach (clipped to the frame), so each pixel's
     filled value depends on the image only, not on where the window ends: the template and
-    every search window see the same filled marker.
+    every search window see the same filled marker. With ``half``, the window (and
+    ``radius_px``) are on the sampler's half-resolution grid (:meth:`RawSampler.window_half`).
     """
+    cut = sampler.window_half if half else sampler.window
     k = fill_reach(radius_px)
     if k < 1:
-        return sampler.window(y, u, v, x0, y0, w, h)
+        return cut(y, u, v, x0, y0, w, h)
+    width, height = (sampler.half_width, sampler.half_height) if half else (sampler.width, sampler.height)
     gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
-    gx1, gy1 = min(x0 + w + k, sampler.width), min(y0 + h + k, sampler.height)
-    big = fill_holes(sampler.window(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
-    return np.ascontiguousarray(big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w])
+    gx1, gy1 = min(x0 + w + k, width), min(y0 + h + k, height)
+    big = fill_holes(cut(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
+    return big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
 
 
 def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tuple[float, float]:
@@ -301,6 +336,13 @@ def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tu
 class MarkerTracker:
     """Frame-by-frame tracking state (prediction history, template, counters).
 
+    A marker of at least :data:`HALF_RES_RADIUS_PX` in raw frames (a phone's 1080p ball) is
+    filled and matched on the half-resolution grid (the chroma planes' own grid, luma
+    averaged over 2x2 blocks; its own template, cut there), sub-pixel peak included: the
+    work per frame drops to about a quarter, and a chroma marker loses nothing (4:2:0 chroma
+    has no finer detail to match). Not with an evolving template, the centroid refinement or
+    a lens-warped or corrected sampler (they work on full-resolution windows).
+
     Parameters
     ----------
     sampler : RawSampler or CorrectedSampler
@@ -317,6 +359,10 @@ class MarkerTracker:
         self.n_wide = 0
         self.n_whole = 0
         self._warp = bool(getattr(sampler, "warps_template", False))
+        # a large marker is matched on the half-resolution grid (HALF_RES_RADIUS_PX), unless the template
+        # evolves or the centroid refines (both work on full-resolution windows)
+        self._half = (template.half_image is not None and not self._warp and params.evolution_rate == 0
+                      and params.refine == "quadratic")
         self._warp_key: tuple[int, int] | None = None
         self._warp_jac: tuple[float, float, float, float] | None = None
         self._warped: tuple[np.ndarray, float] = (template.image, template.std)
@@ -372,6 +418,8 @@ class MarkerTracker:
 
         Returns (score, x, y, peak_on_inner_edge, window, x0, y0, contrast_ok) or None.
         """
+        if self._half:
+            return self._match_half(y, u, v, px, py, margin)
         tpl_img, tpl_std = self._template_at(px, py)
         half = tpl_img.shape[0] // 2
         reach = half + margin
@@ -392,6 +440,34 @@ class MarkerTracker:
         ratio = float(cv2.meanStdDev(win[m.iy:m.iy + side, m.ix:m.ix + side])[1][0, 0]) / (tpl_std + 1e-12)
         r = self.params.min_contrast_ratio
         return m.score, x0 + m.x, y0 + m.y, edge, win, x0, y0, r <= ratio <= 1.0 / r
+
+    def _match_half(self, y: np.ndarray, u: np.ndarray, v: np.ndarray, px: float, py: float,
+                    margin: int) -> tuple[float, float, float, bool, np.ndarray, int, int] | None:
+        """:meth:`_match_at` on the half-resolution grid (margin halved, rounded up); the position returned is
+        in full-resolution px (grid sample ``(i, j)`` at ``(2i + 0.5, 2j + 0.5)``), the window and its
+        offset are on the grid."""
+        t = self.template
+        tpl_img = t.half_image
+        half = tpl_img.shape[0] // 2  # type: ignore[union-attr]
+        reach = half + (margin + 1) // 2
+        cx, cy = int(round((px - 0.5) / 2.0)), int(round((py - 0.5) / 2.0))
+        width, height = self.sampler.half_width, self.sampler.half_height
+        x0, y0 = max(cx - reach, 0), max(cy - reach, 0)
+        x1, y1 = min(cx + reach + 1, width), min(cy + reach + 1, height)
+        if x1 - x0 <= 2 * half or y1 - y0 <= 2 * half:
+            return None
+        win = filled_window(self.sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, self.params.hole_share * t.radius / 2.0,
+                            t.background + 0.5 * t.contrast, half=True)
+        m = match_template(win, tpl_img)  # type: ignore[arg-type]
+        if m is None:
+            return None
+        edge = ((m.ix == 0 and x0 > 0) or (m.iy == 0 and y0 > 0)
+                or (m.ix == m.nx - 1 and x1 < width) or (m.iy == m.ny - 1 and y1 < height))
+        side = tpl_img.shape[0]  # type: ignore[union-attr]
+        ratio = float(cv2.meanStdDev(win[m.iy:m.iy + side, m.ix:m.ix + side])[1][0, 0]) / (t.half_std + 1e-12)
+        r = self.params.min_contrast_ratio
+        return (m.score, 2.0 * (x0 + m.x) + 0.5, 2.0 * (y0 + m.y) + 0.5, edge, win, x0, y0,
+                r <= ratio <= 1.0 / r)
 
     def _whole_frame(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[float, float] | None:
         """Coarse marker centre from a half-resolution whole-frame search."""
@@ -826,4 +902,5 @@ def track_frames(frames: Iterable, *, sampler: RawSampler, params: TrackParams, 
         score=np.asarray(scores, float), ok=np.asarray(oks, bool), detection=det,
         template_size=int(tracker.template.image.shape[0]), radius=float(tracker.template.radius),
         searches={"wide": tracker.n_wide, "whole_frame": tracker.n_whole}, acquisition=acquisition, drift=drift,
+        match_scale=2 if tracker._half else 1,
     )
