@@ -33,15 +33,21 @@ class MarkerColour:
         What the user asked for ("pink", "dark", "#ff00aa", "roi").
     wy, wu, wv : float
         Weights of Y - 128, Cb - 128 and Cr - 128.
+    floor_level : float or None
+        Feature level [8-bit levels] below which every pixel counts as background: the
+        feature is raised to it (:func:`floored`). Set by the detection when the marker
+        touches something of its own colour, only less so (a dark ball on a dark-grey bar:
+        the bar turns with the pendulum and must not be part of the template); None: none.
     """
 
     name: str
     wy: float
     wu: float
     wv: float
+    floor_level: float | None = None
 
     def to_dict(self) -> dict[str, object]:
-        return {"name": self.name, "wy": self.wy, "wu": self.wu, "wv": self.wv}
+        return {"name": self.name, "wy": self.wy, "wu": self.wu, "wv": self.wv, "floor_level": self.floor_level}
 
     @property
     def uses_luma(self) -> bool:
@@ -97,6 +103,13 @@ def parse_marker_colour(spec: str) -> MarkerColour:
     return from_direction(key, 0.0, du, dv)
 
 
+def floored(feature: np.ndarray, colour: MarkerColour) -> np.ndarray:
+    """``feature`` raised to ``colour.floor_level`` (float32, same shape; as is when the colour has none)."""
+    if colour.floor_level is None:
+        return feature
+    return np.maximum(feature, np.float32(colour.floor_level))
+
+
 def chroma_feature(u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> np.ndarray:
     """``wu (Cb - 128) + wv (Cr - 128)`` as float32, same shape as the planes."""
     import cv2
@@ -108,7 +121,7 @@ def half_resolution_feature(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour:
     """The feature of a whole 4:2:0 frame on the chroma grid (half resolution), float32.
 
     Chroma sample ``(i, j)`` sits at luma coordinates ``(2i + 0.5, 2j + 0.5)``; luma is
-    averaged over the 2x2 block it covers.
+    averaged over the 2x2 block it covers. Raised to the colour's floor level (:func:`floored`).
     """
     import cv2
 
@@ -121,4 +134,4 @@ def half_resolution_feature(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour:
             yy = np.pad(y, ((0, 2 * ch - h), (0, 2 * cw - w)), mode="edge")
         small = cv2.resize(yy, (cw, ch), interpolation=cv2.INTER_AREA).astype(np.float32)
         f += np.float32(colour.wy) * (small - np.float32(128.0))
-    return f
+    return floored(f, colour)

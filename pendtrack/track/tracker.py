@@ -45,7 +45,7 @@ import numpy as np
 
 from pendtrack.errors import TrackingError
 from pendtrack.track.circle import fit_circle_pratt
-from pendtrack.track.colour import MarkerColour
+from pendtrack.track.colour import MarkerColour, floored
 from pendtrack.track.detect import Detection, marker_candidates, marker_in_roi
 from pendtrack.track.match import fill_holes, fill_reach, match_template, weighted_centroid
 from pendtrack.track.sampler import RawSampler
@@ -300,17 +300,23 @@ def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
 
     The closing runs on a window grown by its reach (clipped to the frame), so each pixel's
     filled value depends on the image only, not on where the window ends: the template and
-    every search window see the same filled marker. With ``half``, the window (and
+    every search window see the same filled marker. The window is raised to the colour's floor
+    level first (:func:`pendtrack.track.colour.floored`: a touching bar of the marker's colour
+    is background). With ``half``, the window (and
     ``radius_px``) are on the sampler's half-resolution grid (:meth:`RawSampler.window_half`).
     """
-    cut = sampler.window_half if half else sampler.window
+    window = sampler.window_half if half else sampler.window
+
+    def cut(*box: int) -> np.ndarray:
+        return floored(window(y, u, v, *box), sampler.colour)
+
     k = fill_reach(radius_px)
     if k < 1:
-        return cut(y, u, v, x0, y0, w, h)
+        return cut(x0, y0, w, h)
     width, height = (sampler.half_width, sampler.half_height) if half else (sampler.width, sampler.height)
     gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
     gx1, gy1 = min(x0 + w + k, width), min(y0 + h + k, height)
-    big = fill_holes(cut(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
+    big = fill_holes(cut(gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
     return big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
 
 
