@@ -6,18 +6,27 @@ the marker's pixels, its equivalent radius and its contrast over the surrounding
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import cv2
 import numpy as np
 
-from pendtrack.track.colour import MarkerColour, from_direction
+from pendtrack.track.colour import MarkerColour, floored, from_direction
 from pendtrack.track.sampler import RawSampler
 
 MIN_CONTRAST = 12.0  # feature levels (8-bit) the marker must stand above its surroundings
 MIN_SIGMAS = 8.0  # ... and above this many robust standard deviations of the background
 CANDIDATE_LEVELS = 3  # marker_candidates looks this many times, each below the brightest blobs found so far
 MAX_HUE_DEG = 35.0  # a candidate's chroma must point within this angle of the marker colour's [deg]
+# Splitting a ball off the bar it touches (_touching_discs), on the half-resolution grid:
+CORE_SHARE = 0.7  # a disc's core: the top of a peak of depth (inscribed radius), cut at least this share deep
+DEPTH_STEP = 1.25  # depths the blob is cut at, each this times the last (< 1 / CORE_SHARE: every peak is cut)
+MIN_DISC_RADIUS = 2.0  # a disc's inscribed radius is at least this [half px] (a 4 px ball at full resolution)
+NEIGHBOUR_REACH = 3.0  # the neighbour: the blob's pixels within this many disc radii
+DISC_RIM_PX = 2.0  # the disc's blurred rim: its inscribed circle grown by this is not the neighbour [half px]
+NEIGHBOUR_PERCENTILE = 90.0  # the neighbour's level: this percentile of its feature
+FLOOR_SHARE = 0.15  # the floor level sits this share of the way from the neighbour's level to the disc's
 
 
 @dataclass(frozen=True)
@@ -60,40 +69,158 @@ def _feature_levels(y: np.ndarray, u: np.ndarray, v: np.ndarray,
     return half, bg, max(MIN_CONTRAST, MIN_SIGMAS * sigma)
 
 
-def _compact_blobs(half: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float]]]:
-    """Labels, stats and ``(label, mass)`` of the compact blobs of ``half > thr`` (see :func:`find_marker`)."""
+class _Blob(NamedTuple):
+    """A candidate blob of the half-resolution feature.
+
+    Attributes
+    ----------
+    stat : ndarray, int32, shape (5,)
+        Its box and area in ``connectedComponentsWithStats`` order (x, y, w, h, area) [half px].
+    mass : float
+        Its integrated contrast over the threshold [levels x half px^2].
+    pixels : ndarray, bool
+        Its pixels inside the box (shape (h, w)).
+    floor_level : float or None
+        The floor level of a disc split off a neighbour of the marker's colour (see
+        :func:`_touching_discs`), None for a whole compact blob.
+    """
+
+    stat: np.ndarray
+    mass: float
+    pixels: np.ndarray
+    floor_level: float | None = None
+
+
+def _is_compact(w: int, h: int, area: float, hw: int, hh: int) -> bool:
+    """A blob's box (w, h) and area [px] make a compact shape: it fills >= 40 % of its box, its aspect
+    ratio is <= 3 and each side is at most a quarter of the frame's (hw, hh)."""
+    return not (w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h)
+
+
+def _compact_blobs(half: np.ndarray, thr: float) -> list[_Blob]:
+    """The compact blobs of ``half > thr`` (see :func:`find_marker`), and the discs split off the others
+    (:func:`_touching_discs`)."""
     mask = (half > thr).astype(np.uint8)
     hh, hw = half.shape
-    labels = np.zeros((hh, hw), np.int32)
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     if rows.size == 0:
-        return labels, np.zeros((1, 5), np.int32), []
+        return []
     # label only the box holding every pixel above thr (often a few blobs in a corner of the frame: 4 ms saved
     # per level at 1080p); the components, their order and their stats are those of the whole frame
     r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-    n, labels[r0:r1, c0:c1], stats, _ = cv2.connectedComponentsWithStats(mask[r0:r1, c0:c1], connectivity=8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask[r0:r1, c0:c1], connectivity=8)
     stats[:, 0] += c0
     stats[:, 1] += r0
     blobs = []
     for k in range(1, n):
         x, yb, w, h, area = stats[k]
-        if w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h:
-            continue
         box = np.s_[yb:yb + h, x:x + w]  # the blob's bounding box: the mask of the whole frame costs 10x more
-        blobs.append((k, float((half[box][labels[box] == k] - thr).sum())))
-    return labels, stats, blobs
+        pixels = labels[yb - r0:yb - r0 + h, x - c0:x - c0 + w] == k
+        if _is_compact(w, h, area, hw, hh):
+            blobs.append(_Blob(stats[k], float((half[box][pixels] - thr).sum()), pixels))
+        else:
+            blobs.extend(_touching_discs(half[box], pixels, (int(x), int(yb)), thr))
+    return blobs
+
+
+def _touching_discs(feature: np.ndarray, pixels: np.ndarray, origin: tuple[int, int], thr: float) -> list[_Blob]:
+    """Discs of a non-compact blob: a marker touching a thinner thing of its colour (a dark ball on a dark bar).
+
+    The distance transform of the blob is its inscribed radius at each pixel: about the
+    ball's radius at its centre, at most half the bar's width along the bar. Cut at depths
+    ``t`` from :data:`MIN_DISC_RADIUS` on, each :data:`DEPTH_STEP` times the last, the blob's
+    parts at least ``t`` deep are peaks of depth; one no deeper than ``t / CORE_SHARE``
+    (the top of its peak, not a cut through a wider region such as the floor the bar ends
+    on) and compact is a disc's core, when the bar is narrower than ``CORE_SHARE`` of the
+    ball. The blob's pixels around the disc (its inscribed circle grown by
+    :data:`DISC_RIM_PX`, out to :data:`NEIGHBOUR_REACH` radii) are the neighbour; its level
+    (:data:`NEIGHBOUR_PERCENTILE`-th percentile) plus :data:`FLOOR_SHARE` of the gap to the
+    core's median is the disc's floor level: below it everything is background (see
+    :func:`pendtrack.track.colour.floored`). A disc standing less than :data:`MIN_CONTRAST`
+    above its neighbour is dropped.
+
+    Parameters
+    ----------
+    feature : ndarray, float32
+        Half-resolution feature in the blob's box.
+    pixels : ndarray, bool
+        The blob's pixels in the box.
+    origin : (int, int)
+        The box's top-left corner in the half-resolution frame [half px].
+    thr : float
+        The level the blob was cut at.
+
+    Returns
+    -------
+    list of _Blob
+        One per disc: its box (the inscribed circle's) [half px of the frame], its mass over
+        its floor level, its pixels and the floor level.
+    """
+    depth = cv2.distanceTransform(np.pad(pixels, 1).view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
+    deepest = float(depth.max())
+    out: list[_Blob] = []
+    seen: set[tuple[int, int]] = set()
+    t = MIN_DISC_RADIUS
+    while t <= deepest:
+        n, labels, stats, _ = cv2.connectedComponentsWithStats((depth >= t).view(np.uint8), connectivity=8)
+        for k in range(1, n):
+            x, yb, w, h, area = stats[k]
+            if not _is_compact(w, h, area, 4 * w, 4 * h):
+                continue
+            box = np.s_[yb:yb + h, x:x + w]
+            core = labels[box] == k
+            local = np.where(core, depth[box], 0.0)
+            j = int(np.argmax(local))
+            centre = (int(yb) + j // int(w), int(x) + j % int(w))
+            if float(local.max()) * CORE_SHARE > t or centre in seen:
+                continue
+            seen.add(centre)
+            disc = _disc(feature, pixels, centre, float(local.max()), float(np.median(feature[box][core])), origin, thr)
+            if disc is not None:
+                out.append(disc)
+        t *= DEPTH_STEP
+    return out
+
+
+def _disc(feature: np.ndarray, pixels: np.ndarray, centre: tuple[int, int], radius: float, top: float,
+          origin: tuple[int, int], thr: float) -> _Blob | None:
+    """The disc of inscribed ``radius`` [half px] at ``centre`` (row, column of the blob's box), core level
+    ``top``, with its floor level from its neighbour (see :func:`_touching_discs`), or None."""
+    cy, cx = centre
+    hh, hw = pixels.shape
+    yy, xx = np.indices(pixels.shape)
+    d2 = (xx - cx) ** 2 + (yy - cy) ** 2
+    inside = d2 <= (radius + DISC_RIM_PX) ** 2
+    neighbour = feature[pixels & ~inside & (d2 <= (NEIGHBOUR_REACH * radius + DISC_RIM_PX) ** 2)]
+    if neighbour.size == 0:
+        return None
+    level = float(np.percentile(neighbour, NEIGHBOUR_PERCENTILE))
+    if top - level < MIN_CONTRAST:
+        return None
+    floor_level = level + FLOOR_SHARE * (top - level)
+    r = int(np.ceil(radius))
+    bx, by = max(cx - r, 0), max(cy - r, 0)
+    bw, bh = min(cx + r + 1, hw) - bx, min(cy + r + 1, hh) - by
+    box = np.s_[by:by + bh, bx:bx + bw]
+    disc = (pixels & inside)[box]
+    stat = np.array([origin[0] + bx, origin[1] + by, bw, bh, int(disc.sum())], np.int32)
+    mass = float(np.clip(feature[box][disc] - max(thr, floor_level), 0, None).sum())
+    return _Blob(stat, mass, disc, floor_level)
 
 
 def _refine_blob(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour,
-                 stat: np.ndarray) -> Detection | None:
-    """Refine a half-resolution blob (its ``stats`` row) at full resolution."""
-    x, yb, w, h, _ = stat
+                 blob: _Blob) -> Detection | None:
+    """Refine a half-resolution blob at full resolution; a disc split off a neighbour (:func:`_touching_discs`)
+    on the feature raised to its floor level, which its detection's colour keeps."""
+    if blob.floor_level is not None:
+        colour = replace(colour, floor_level=blob.floor_level)
+    x, yb, w, h, _ = blob.stat
     # refine at full resolution in a window around the blob (half-res sample i at 2i + 0.5)
     pad = max(w, h) + 4
     x0, y0 = max(2 * (x - pad), 0), max(2 * (yb - pad), 0)
     x1, y1 = min(2 * (x + w + pad), y.shape[1]), min(2 * (yb + h + pad), y.shape[0])
-    return _refine(RawSampler(colour, width=y.shape[1], height=y.shape[0]).window(y, u, v, x0, y0, x1 - x0, y1 - y0),
-                   x0, y0, colour)
+    window = RawSampler(colour, width=y.shape[1], height=y.shape[0]).window(y, u, v, x0, y0, x1 - x0, y1 - y0)
+    return _refine(floored(window, colour), x0, y0, colour)
 
 
 def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> Detection | None:
@@ -119,11 +246,10 @@ def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColou
     peak = float(half.max())
     if peak - bg < floor:
         return None
-    _, stats, blobs = _compact_blobs(half, bg + 0.5 * (peak - bg))
+    blobs = _compact_blobs(half, bg + 0.5 * (peak - bg))
     if not blobs:
         return None
-    best = max(blobs, key=lambda b: b[1])[0]
-    return _refine_blob(y, u, v, colour, stats[best])
+    return _refine_blob(y, u, v, colour, max(blobs, key=lambda b: b.mass))
 
 
 def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour, *,
@@ -155,21 +281,19 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
         if peak - bg < floor:
             break
         thr = bg + 0.5 * (peak - bg)
-        labels, stats, blobs = _compact_blobs(work, thr)
-        for k, _mass in blobs:
+        for blob in _compact_blobs(work, thr):
+            bx, by, bw, bh = (int(a) for a in blob.stat[:4])
             if colour.uses_chroma:
-                bx, by, bw, bh = stats[k][:4]
                 box = np.s_[by:by + bh, bx:bx + bw]
-                sel = labels[box] == k
-                du, dv = float(u[box][sel].mean()) - du0, float(v[box][sel].mean()) - dv0
+                du, dv = float(u[box][blob.pixels].mean()) - du0, float(v[box][blob.pixels].mean()) - dv0
                 norm = np.hypot(du, dv) * np.hypot(colour.wu, colour.wv)
                 if norm <= 0 or (du * colour.wu + dv * colour.wv) / norm < cos_min:
                     continue
-            det = _refine_blob(y, u, v, colour, stats[k])
+            det = _refine_blob(y, u, v, colour, blob)
             if det is None:
                 continue
-            cx, cy = 2 * float(stats[k][0] + stats[k][2] / 2), 2 * float(stats[k][1] + stats[k][3] / 2)
-            if np.hypot(det.x - cx, det.y - cy) > max(stats[k][2], stats[k][3]) + 2:
+            cx, cy = 2 * (bx + bw / 2), 2 * (by + bh / 2)
+            if np.hypot(det.x - cx, det.y - cy) > max(bw, bh) + 2:
                 continue  # the refinement went to a neighbour
             if any(np.hypot(det.x - o.x, det.y - o.y) < max(det.radius, o.radius) for o in out):
                 continue
