@@ -121,7 +121,7 @@ def half_resolution_feature(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour:
     """The feature of a whole 4:2:0 frame on the chroma grid (half resolution), float32.
 
     Chroma sample ``(i, j)`` sits at luma coordinates ``(2i + 0.5, 2j + 0.5)``; luma is
-    averaged over the 2x2 block it covers. Raised to the colour's floor level (:func:`floored`).
+    averaged over the 2x2 block it covers.
     """
     import cv2
 
@@ -134,4 +134,4 @@ def half_resolution_feature(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour:
             yy = np.pad(y, ((0, 2 * ch - h), (0, 2 * cw - w)), mode="edge")
         small = cv2.resize(yy, (cw, ch), interpolation=cv2.INTER_AREA).astype(np.float32)
         f += np.float32(colour.wy) * (small - np.float32(128.0))
-    return floored(f, colour)
+    return f

@@ -91,10 +91,9 @@ class _Blob(NamedTuple):
     floor_level: float | None = None
 
 
-def _is_compact(w: int, h: int, area: float, hw: int, hh: int) -> bool:
-    """A blob's box (w, h) and area [px] make a compact shape: it fills >= 40 % of its box, its aspect
-    ratio is <= 3 and each side is at most a quarter of the frame's (hw, hh)."""
-    return not (w > hw / 4 or h > hh / 4 or max(w, h) > 3 * min(w, h) or area < 0.4 * w * h)
+def _is_compact(w: int, h: int, area: float) -> bool:
+    """A blob of box (w, h) and ``area`` [px] is compact: it fills >= 40 % of its box, aspect ratio <= 3."""
+    return max(w, h) <= 3 * min(w, h) and area >= 0.4 * w * h
 
 
 def _compact_blobs(half: np.ndarray, thr: float) -> list[_Blob]:
@@ -116,7 +115,7 @@ def _compact_blobs(half: np.ndarray, thr: float) -> list[_Blob]:
         x, yb, w, h, area = stats[k]
         box = np.s_[yb:yb + h, x:x + w]  # the blob's bounding box: the mask of the whole frame costs 10x more
         pixels = labels[yb - r0:yb - r0 + h, x - c0:x - c0 + w] == k
-        if _is_compact(w, h, area, hw, hh):
+        if w <= hw / 4 and h <= hh / 4 and _is_compact(w, h, area):
             blobs.append(_Blob(stats[k], float((half[box][pixels] - thr).sum()), pixels))
         else:
             blobs.extend(_touching_discs(half[box], pixels, (int(x), int(yb)), thr))
@@ -165,7 +164,7 @@ def _touching_discs(feature: np.ndarray, pixels: np.ndarray, origin: tuple[int, 
         n, labels, stats, _ = cv2.connectedComponentsWithStats((depth >= t).view(np.uint8), connectivity=8)
         for k in range(1, n):
             x, yb, w, h, area = stats[k]
-            if not _is_compact(w, h, area, 4 * w, 4 * h):
+            if not _is_compact(w, h, area):
                 continue
             box = np.s_[yb:yb + h, x:x + w]
             core = labels[box] == k

@@ -476,9 +476,10 @@ class MarkerTracker:
                 r <= ratio <= 1.0 / r)
 
     def _whole_frame(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[float, float] | None:
-        """Coarse marker centre from a half-resolution whole-frame search."""
+        """Coarse marker centre from a half-resolution whole-frame search (on the feature raised to the colour's
+        floor level, as the template)."""
         self.n_whole += 1
-        f = self.sampler.whole_half(y, u, v)
+        f = floored(self.sampler.whole_half(y, u, v), self.sampler.colour)
         small = self.template.small
         if f.shape[0] < small.shape[0] or f.shape[1] < small.shape[1]:
             return None
