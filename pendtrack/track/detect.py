@@ -23,6 +23,7 @@ MAX_HUE_DEG = 35.0  # a candidate's chroma must point within this angle of the m
 CORE_SHARE = 0.7  # a disc's core: the top of a peak of depth (inscribed radius), cut at least this share deep
 DEPTH_STEP = 1.25  # depths the blob is cut at, each this times the last (< 1 / CORE_SHARE: every peak is cut)
 MIN_DISC_RADIUS = 2.0  # a disc's inscribed radius is at least this [half px] (a 4 px ball at full resolution)
+MAX_SPLIT_AREA = 0.25  # blobs covering more of the frame are not split (the wall under a low threshold)
 NEIGHBOUR_REACH = 3.0  # the neighbour: the blob's pixels within this many disc radii
 DISC_RIM_PX = 2.0  # the disc's blurred rim: its inscribed circle grown by this is not the neighbour [half px]
 NEIGHBOUR_PERCENTILE = 90.0  # the neighbour's level: this percentile of its feature
@@ -117,7 +118,7 @@ def _compact_blobs(half: np.ndarray, thr: float) -> list[_Blob]:
         pixels = labels[yb - r0:yb - r0 + h, x - c0:x - c0 + w] == k
         if w <= hw / 4 and h <= hh / 4 and _is_compact(w, h, area):
             blobs.append(_Blob(stats[k], float((half[box][pixels] - thr).sum()), pixels))
-        else:
+        elif area <= MAX_SPLIT_AREA * hw * hh:  # larger: the background itself (a low threshold), no bar
             blobs.extend(_touching_discs(half[box], pixels, (int(x), int(yb)), thr))
     return blobs
 
@@ -185,26 +186,33 @@ def _disc(feature: np.ndarray, pixels: np.ndarray, centre: tuple[int, int], radi
           origin: tuple[int, int], thr: float) -> _Blob | None:
     """The disc of inscribed ``radius`` [half px] at ``centre`` (row, column of the blob's box), core level
     ``top``, with its floor level from its neighbour (see :func:`_touching_discs`), or None."""
-    cy, cx = centre
-    hh, hw = pixels.shape
-    yy, xx = np.indices(pixels.shape)
+    reach = NEIGHBOUR_REACH * radius + DISC_RIM_PX
+    near = _around(pixels.shape, centre, int(np.ceil(reach)))  # every pixel within reach: a blob's box is large
+    feature, pixels = feature[near], pixels[near]
+    cy, cx = centre[0] - near[0].start, centre[1] - near[1].start
+    yy, xx = np.ogrid[:pixels.shape[0], :pixels.shape[1]]
     d2 = (xx - cx) ** 2 + (yy - cy) ** 2
     inside = d2 <= (radius + DISC_RIM_PX) ** 2
-    neighbour = feature[pixels & ~inside & (d2 <= (NEIGHBOUR_REACH * radius + DISC_RIM_PX) ** 2)]
+    neighbour = feature[pixels & ~inside & (d2 <= reach ** 2)]
     if neighbour.size == 0:
         return None
     level = float(np.percentile(neighbour, NEIGHBOUR_PERCENTILE))
     if top - level < MIN_CONTRAST:
         return None
     floor_level = level + FLOOR_SHARE * (top - level)
-    r = int(np.ceil(radius))
-    bx, by = max(cx - r, 0), max(cy - r, 0)
-    bw, bh = min(cx + r + 1, hw) - bx, min(cy + r + 1, hh) - by
-    box = np.s_[by:by + bh, bx:bx + bw]
+    box = _around(pixels.shape, (cy, cx), int(np.ceil(radius)))
     disc = (pixels & inside)[box]
-    stat = np.array([origin[0] + bx, origin[1] + by, bw, bh, int(disc.sum())], np.int32)
+    by, bx = box[0].start, box[1].start
+    stat = np.array([origin[0] + near[1].start + bx, origin[1] + near[0].start + by, disc.shape[1], disc.shape[0],
+                     int(disc.sum())], np.int32)
     mass = float(np.clip(feature[box][disc] - max(thr, floor_level), 0, None).sum())
     return _Blob(stat, mass, disc, floor_level)
+
+
+def _around(shape: tuple[int, ...], centre: tuple[int, int], r: int) -> tuple[slice, slice]:
+    """Rows and columns within ``r`` [px] of ``centre`` (row, column), clipped to an array of ``shape``."""
+    cy, cx = centre
+    return np.s_[max(cy - r, 0):min(cy + r + 1, shape[0]), max(cx - r, 0):min(cx + r + 1, shape[1])]
 
 
 def _refine_blob(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour,
