@@ -127,6 +127,18 @@ def test_fill_holes_fills_a_sticker_and_keeps_the_outline():
     np.testing.assert_array_equal(gated[:9, :9], pit.astype(np.float32)[:9, :9])
 
 
+@pytest.mark.parametrize("radius", [0.4, 1.0, 2.0, 7.2])
+def test_fill_holes_box_is_that_part_of_the_whole_result(radius):
+    from pendtrack.track.match import fill_holes
+
+    rng = np.random.default_rng(5)
+    feature = (disc(37, 45, 20.3, 17.6, 9.0) * 40 + rng.normal(0, 3, (37, 45))).astype(np.float32)
+    for level in (None, 20.0):
+        whole = fill_holes(feature, radius, level=level)
+        for box in (np.s_[0:37, 0:45], np.s_[6:31, 5:40], np.s_[0:12, 30:45], np.s_[20:37, 0:3]):
+            np.testing.assert_array_equal(fill_holes(feature, radius, level=level, box=box), whole[box])
+
+
 def test_filled_window_does_not_depend_on_where_the_window_ends():
     from pendtrack.track.tracker import filled_window
 

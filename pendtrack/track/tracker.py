@@ -310,8 +310,8 @@ def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     width, height = (sampler.half_width, sampler.half_height) if half else (sampler.width, sampler.height)
     gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
     gx1, gy1 = min(x0 + w + k, width), min(y0 + h + k, height)
-    big = fill_holes(cut(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
-    return big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
+    box = np.s_[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
+    return fill_holes(cut(y, u, v, gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level, box=box)
 
 
 def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tuple[float, float]:
