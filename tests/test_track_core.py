@@ -273,6 +273,25 @@ def test_corrected_sampler_tracks_in_corrected_coordinates():
     assert res.ok.all() and np.hypot(res.x - ex, res.y - ey).max() < 0.4
 
 
+def test_warped_templates_are_computed_once_per_lens_jacobian():
+    from pendtrack.track.tracker import MarkerTracker, _Template, warp_template
+
+    fe = Fisheye(width=320, height=240, projection="equidistant", fov_deg=150.0)
+    sampler = WarpedRawSampler(parse_marker_colour("pink"), fisheye=fe)
+    image = (disc(25, 25, 12.0, 12.0, 7.0) * 40).astype(np.float32)
+    tracker = MarkerTracker(sampler, _Template(image, 7.0, 40.0), TrackParams())
+    path = [(40.0 + 9.0 * k, 60.0 + 4.0 * k) for k in range(25)]
+    first = [tracker._template_at(x, y) for x, y in path + path[::-1]]
+    assert len(tracker._warps) < len(path)  # the swing back reuses the warps of the swing out
+    for (img, std), (x, y) in zip(first, path + path[::-1]):
+        if img is not image:
+            assert std == pytest.approx(float(img.std()), rel=1e-5)
+    np.testing.assert_array_equal(tracker._template_at(*path[-1])[0], warp_template(image, tracker._warp_jac))
+    assert tracker._warp_jac in tracker._warps
+    tracker._forget_warps()
+    assert not tracker._warps and tracker._warp_key is None
+
+
 def test_warped_template_in_raw_frames_matches_the_corrected_path():
     frames, truth = swing(30, amp=0.6)
     fe = Fisheye(width=320, height=240)
