@@ -127,6 +127,18 @@ def test_fill_holes_fills_a_sticker_and_keeps_the_outline():
     np.testing.assert_array_equal(gated[:9, :9], pit.astype(np.float32)[:9, :9])
 
 
+@pytest.mark.parametrize("radius", [0.4, 1.0, 2.0, 7.2])
+def test_fill_holes_box_is_that_part_of_the_whole_result(radius):
+    from pendtrack.track.match import fill_holes
+
+    rng = np.random.default_rng(5)
+    feature = (disc(37, 45, 20.3, 17.6, 9.0) * 40 + rng.normal(0, 3, (37, 45))).astype(np.float32)
+    for level in (None, 20.0):
+        whole = fill_holes(feature, radius, level=level)
+        for box in (np.s_[0:37, 0:45], np.s_[6:31, 5:40], np.s_[0:12, 30:45], np.s_[20:37, 0:3]):
+            np.testing.assert_array_equal(fill_holes(feature, radius, level=level, box=box), whole[box])
+
+
 def test_filled_window_does_not_depend_on_where_the_window_ends():
     from pendtrack.track.tracker import filled_window
 
@@ -259,6 +271,25 @@ def test_corrected_sampler_tracks_in_corrected_coordinates():
     # the synthetic spot is round in the raw frame, so its corrected image is slightly
     # egg-shaped: allow a few tenths of a pixel
     assert res.ok.all() and np.hypot(res.x - ex, res.y - ey).max() < 0.4
+
+
+def test_warped_templates_are_computed_once_per_lens_jacobian():
+    from pendtrack.track.tracker import MarkerTracker, _Template, warp_template
+
+    fe = Fisheye(width=320, height=240, projection="equidistant", fov_deg=150.0)
+    sampler = WarpedRawSampler(parse_marker_colour("pink"), fisheye=fe)
+    image = (disc(25, 25, 12.0, 12.0, 7.0) * 40).astype(np.float32)
+    tracker = MarkerTracker(sampler, _Template(image, 7.0, 40.0), TrackParams())
+    path = [(40.0 + 9.0 * k, 60.0 + 4.0 * k) for k in range(25)]
+    first = [tracker._template_at(x, y) for x, y in path + path[::-1]]
+    assert len(tracker._warps) < len(path)  # the swing back reuses the warps of the swing out
+    for (img, std), (x, y) in zip(first, path + path[::-1]):
+        if img is not image:
+            assert std == pytest.approx(float(img.std()), rel=1e-5)
+    np.testing.assert_array_equal(tracker._template_at(*path[-1])[0], warp_template(image, tracker._warp_jac))
+    assert tracker._warp_jac in tracker._warps
+    tracker._forget_warps()
+    assert not tracker._warps and tracker._warp_key is None
 
 
 def test_warped_template_in_raw_frames_matches_the_corrected_path():

@@ -160,7 +160,8 @@ def _octagon_passes(k: int) -> tuple[np.ndarray | None, int]:
     return square, b
 
 
-def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = None) -> np.ndarray:
+def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = None,
+               box: tuple[slice, slice] | None = None) -> np.ndarray:
     """The feature with the dips inside a marker filled: a grey closing with a flat octagon.
 
     A sticker of another colour on a ball turns with it; matched against a template cut
@@ -184,15 +185,19 @@ def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = N
         Inradius of the octagon [px], rounded to whole px; below 1 px the feature is returned as is.
     level : float, optional
         Only pixels whose closed value reaches this feature level are filled.
+    box : (slice, slice), optional
+        Return only this part (rows, columns; steps of 1) of the result. The closing still
+        sees the whole ``feature`` (the values are those of the whole result's part); only
+        its last pass and the ``level`` test are spared outside the box.
 
     Returns
     -------
     ndarray, float32
-        Same shape.
+        Same shape, or the shape of ``box``.
     """
     k = fill_reach(radius_px)
     if k < 1:
-        return feature
+        return feature if box is None else feature[box]
     # an octagon, not a disc, for speed (see _octagon_passes); nearly round, so the filling does not
     # depend on how the sticker has turned (a square's did: theta 1.89 instead of 1.44 mrad RMS)
     square, b = _octagon_passes(k)
@@ -200,8 +205,26 @@ def fill_holes(feature: np.ndarray, radius_px: float, *, level: float | None = N
     closed = feature if square is None else cv2.dilate(feature, square, borderType=cv2.BORDER_REPLICATE)
     closed = cv2.dilate(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)
     closed = cv2.erode(closed, cross, iterations=b, borderType=cv2.BORDER_REPLICATE)
+    if box is None:
+        box = np.s_[:, :]
     if square is not None:
-        closed = cv2.erode(closed, square, borderType=cv2.BORDER_REPLICATE)
+        # the last erosion reads ``k - b`` px around each pixel: on the box grown by that much (clipped
+        # to the feature, whose edge then replicates as in the whole), the box's values are the whole's
+        grown, inner = _grow_box(box, k - b, feature.shape)
+        closed = cv2.erode(closed[grown], square, borderType=cv2.BORDER_REPLICATE)[inner]
+    else:
+        closed = closed[box]
     if level is None:
         return closed
-    return np.where(closed >= np.float32(level), closed, feature)
+    return np.where(closed >= np.float32(level), closed, feature[box])
+
+
+def _grow_box(box: tuple[slice, slice], reach: int,
+              shape: tuple[int, ...]) -> tuple[tuple[slice, slice], tuple[slice, slice]]:
+    """``box`` grown by ``reach`` px on each side within ``shape``, and ``box`` inside the grown one."""
+    rows, cols = (range(*s.indices(n)) for s, n in zip(box, shape))
+    r0, c0 = max(rows.start - reach, 0), max(cols.start - reach, 0)
+    r1, c1 = min(rows.stop + reach, shape[0]), min(cols.stop + reach, shape[1])
+    grown = (slice(r0, r1), slice(c0, c1))
+    inner = (slice(rows.start - r0, rows.stop - r0), slice(cols.start - c0, cols.stop - c0))
+    return grown, inner

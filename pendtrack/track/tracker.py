@@ -69,6 +69,7 @@ ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is uncle
 # resolution, its chroma on a grid of half that) whose theta meets the target, and the filling and matching cost
 # a quarter to a sixth (measured on the 1080p blue ball, 43 px: 0.61 -> 0.14 ms filling, 0.32 -> 0.07 ms matching).
 HALF_RES_RADIUS_PX = 24.0
+MAX_WARPS = 4096  # lens-warped templates kept at most (one per lens Jacobian met; ~8 kB each for the paper's spot)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -316,8 +317,36 @@ def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     width, height = (sampler.half_width, sampler.half_height) if half else (sampler.width, sampler.height)
     gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
     gx1, gy1 = min(x0 + w + k, width), min(y0 + h + k, height)
-    big = fill_holes(cut(gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level)
-    return big[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
+    box = np.s_[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
+    return fill_holes(cut(gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level, box=box)
+
+
+def warp_template(canon: np.ndarray, jac: tuple[float, float, float, float]) -> np.ndarray:
+    """The template cut in corrected space as the lens shows it where its Jacobian is ``jac``.
+
+    Parameters
+    ----------
+    canon : ndarray, float32
+        Template in corrected (rectilinear) space, odd square side.
+    jac : (float, float, float, float)
+        ``(dxr/dxc, dxr/dyc, dyr/dxc, dyr/dyc)`` [raw px per corrected px] (see
+        :meth:`pendtrack.track.sampler.WarpedRawSampler.jacobian`).
+
+    Returns
+    -------
+    ndarray, float32
+        Odd square side, grown to hold the warped template, centred on its centre.
+    """
+    a, b, c, d = jac
+    det = a * d - b * c
+    ia, ib, ic, idd = d / det, -b / det, -c / det, a / det  # raw offset -> corrected offset
+    hc = (canon.shape[0] - 1) / 2.0
+    grow = max(abs(a) + abs(b), abs(c) + abs(d))
+    hr = int(np.ceil(hc * grow))
+    side = 2 * hr + 1
+    m = np.array([[ia, ib, hc - (ia + ib) * hr], [ic, idd, hc - (ic + idd) * hr]])
+    return cv2.warpAffine(canon, m, (side, side), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                          borderMode=cv2.BORDER_REPLICATE)
 
 
 def template_drift(anchor: np.ndarray, current: np.ndarray, *, reach: int) -> tuple[float, float]:
@@ -372,6 +401,9 @@ class MarkerTracker:
         self._warp_key: tuple[int, int] | None = None
         self._warp_jac: tuple[float, float, float, float] | None = None
         self._warped: tuple[np.ndarray, float] = (template.image, template.std)
+        # the template warped per lens Jacobian, kept while it does not change (a pendulum swings over the same
+        # grid nodes again and again: each warp is computed once, not at every other frame)
+        self._warps: dict[tuple[float, float, float, float], tuple[np.ndarray, float]] = {}
         self._anchor = template.image.copy()
         self._n_evolved = 0
         self.drift_max = 0.0
@@ -388,21 +420,21 @@ class MarkerTracker:
         jac = self.sampler.jacobian(px, py)  # type: ignore[attr-defined]
         last = self._warp_jac
         if last is None or max(abs(p - q) for p, q in zip(jac, last)) > WARP_TOLERANCE:
-            a, b, c, d = jac
-            det = a * d - b * c
-            ia, ib, ic, idd = d / det, -b / det, -c / det, a / det  # raw offset -> corrected offset
-            canon = self.template.image
-            hc = (canon.shape[0] - 1) / 2.0
-            grow = max(abs(a) + abs(b), abs(c) + abs(d))
-            hr = int(np.ceil(hc * grow))
-            side = 2 * hr + 1
-            m = np.array([[ia, ib, hc - (ia + ib) * hr], [ic, idd, hc - (ic + idd) * hr]])
-            img = cv2.warpAffine(canon, m, (side, side), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                                 borderMode=cv2.BORDER_REPLICATE)
-            self._warped = (img, float(cv2.meanStdDev(img)[1][0, 0]))
+            if jac not in self._warps:
+                if len(self._warps) >= MAX_WARPS:
+                    self._warps.clear()
+                img = warp_template(self.template.image, jac)
+                self._warps[jac] = (img, float(cv2.meanStdDev(img)[1][0, 0]))
+            self._warped = self._warps[jac]
             self._warp_jac = jac
         self._warp_key = key
         return self._warped
+
+    def _forget_warps(self) -> None:
+        """The template changed: its warps are to be computed anew."""
+        self._warp_key = None
+        self._warp_jac = None
+        self._warps.clear()
 
     def _predict(self, i: int) -> tuple[float, float, bool] | None:
         """(x, y, reliable) or None when the marker has been lost too long."""
@@ -549,8 +581,7 @@ class MarkerTracker:
             cwin = filled_window(cs, y, u, v, wx0, wy0, 2 * pad + 2, 2 * pad + 2, self.params.hole_share * t.radius,
                                  t.background + 0.5 * t.contrast)
             patch = cv2.getRectSubPix(cwin, shape, (cx - wx0, cy - wy0))
-            self._warp_key = None
-            self._warp_jac = None
+            self._forget_warps()
         else:
             patch = cv2.getRectSubPix(win, shape, (mx - x0, my - y0))
         self.template.evolve(patch, self.params.evolution_rate)
@@ -570,8 +601,7 @@ class MarkerTracker:
             self.template.image = cv2.warpAffine(img, m, img.shape[::-1], flags=cv2.INTER_LINEAR,
                                                  borderMode=cv2.BORDER_REPLICATE)
             self.template.evolve(self.template.image, 0.0)  # refresh its statistics
-            self._warp_key = None
-            self._warp_jac = None
+            self._forget_warps()
             self._warped = (self.template.image, self.template.std)
             self.reanchors += 1
             log.warning("template drifted %.1f px from the first template: re-anchored", d)

@@ -225,21 +225,26 @@ class VideoReader:
 
     def close(self) -> None:
         """Stop a prefetching thread, then close the container."""
+        self._stop_prefetch()
+        self._container.close()
+
+    def _stop_prefetch(self) -> None:
         if self._prefetcher is not None:
             self._prefetcher.close()
             self._prefetcher = None
-        self._container.close()
 
     def __iter__(self) -> Iterator[YuvFrame]:
+        decoded: Iterator[av.VideoFrame] = self._container.decode(self._stream)
         if self._prefetch > 0:
             if self._prefetcher is not None:
                 self._prefetcher.close()
-            self._prefetcher = _Prefetcher(self._frames(), self._prefetch)
-            return iter(self._prefetcher)
-        return self._frames()
+            # the thread only decodes; timestamps and planes are the consumer's (the decoder is the slower side)
+            self._prefetcher = _Prefetcher(decoded, self._prefetch)
+            decoded = iter(self._prefetcher)
+        return self._frames(decoded)
 
-    def _frames(self) -> Iterator[YuvFrame]:
-        stream = self._stream
+    def _frames(self, decoder: Iterator[av.VideoFrame]) -> Iterator[YuvFrame]:
+        """Frames of the time range from an iterator of decoded frames (its FFmpeg errors become VideoError)."""
         fps_override = self._fps
         avg_rate = self.info.fps
         t_first: float | None = None
@@ -247,7 +252,6 @@ class VideoReader:
         index = 0
         n_yielded = 0
         start, end = self._start - TIME_TOLERANCE_S, self._end + TIME_TOLERANCE_S
-        decoder = self._container.decode(stream)
         while True:
             try:
                 frame = next(decoder)
@@ -269,6 +273,7 @@ class VideoReader:
                     t_first = pts_time
                 t = pts_time - t_first
             if self._end > 0 and t > end and n_yielded:
+                self._stop_prefetch()
                 return  # past ``end``: the rest of the file is not read
             self.n_decoded = index + 1
             index += 1
@@ -299,9 +304,9 @@ _END = object()
 
 
 class _Prefetcher:
-    """Run a frame iterator in a daemon thread, ``depth`` items ahead; re-raise its exception in the consumer."""
+    """Run an iterator in a daemon thread, ``depth`` items ahead; re-raise its exception in the consumer."""
 
-    def __init__(self, frames: Iterator[YuvFrame], depth: int) -> None:
+    def __init__(self, frames: Iterator, depth: int) -> None:
         self._frames = frames
         self._q: queue.Queue = queue.Queue(maxsize=depth)
         self._stop = threading.Event()
@@ -326,7 +331,7 @@ class _Prefetcher:
         except BaseException as exc:  # noqa: BLE001 - handed to the consumer
             self._put(exc)
 
-    def __iter__(self) -> Iterator[YuvFrame]:
+    def __iter__(self) -> Iterator:
         try:
             while True:
                 item = self._q.get()
@@ -334,7 +339,7 @@ class _Prefetcher:
                     return
                 if isinstance(item, BaseException):
                     raise item
-                yield item  # type: ignore[misc]
+                yield item
         finally:
             self.close()
 
