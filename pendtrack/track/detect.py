@@ -6,6 +6,7 @@ the marker's pixels, its equivalent radius and its contrast over the surrounding
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
@@ -28,6 +29,7 @@ NEIGHBOUR_REACH = 3.0  # the neighbour: the blob's pixels within this many disc 
 DISC_RIM_PX = 2.0  # the disc's blurred rim: its inscribed circle grown by this is not the neighbour [half px]
 NEIGHBOUR_PERCENTILE = 90.0  # the neighbour's level: this percentile of its feature
 FLOOR_SHARE = 0.15  # the floor level sits this share of the way from the neighbour's level to the disc's
+LEVEL_SAMPLES = 20_000  # the background and noise levels are medians of at least this many pixels (level_step)
 
 
 @dataclass(frozen=True)
@@ -64,10 +66,24 @@ def _feature_levels(y: np.ndarray, u: np.ndarray, v: np.ndarray,
                     colour: MarkerColour) -> tuple[np.ndarray, float, float]:
     """Blurred half-resolution feature, its background level and the level a marker must reach."""
     half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
-    bg = float(np.median(half))
-    # noise from neighbour differences, blind to smooth lighting gradients
-    sigma = 1.4826 * float(np.median(cv2.absdiff(half[:, 1:], half[:, :-1]))) / np.sqrt(2) + 1e-6
+    s = level_step(half.size)
+    bg = float(np.median(half[::s, ::s]))
+    # noise from neighbour differences, blind to smooth lighting gradients (those of every s-th pixel)
+    sigma = 1.4826 * float(np.median(np.abs(half[::s, 1::s] - half[::s, :-1:s]))) / np.sqrt(2) + 1e-6
     return half, bg, max(MIN_CONTRAST, MIN_SIGMAS * sigma)
+
+
+def level_step(n: int) -> int:
+    """Grid step [px] of the samples a frame's background and noise levels are the medians of.
+
+    Every ``s``-th pixel in each axis, ``s`` the largest step keeping at least
+    :data:`LEVEL_SAMPLES` of the ``n`` pixels (1 for small frames: every pixel). These
+    levels are robust statistics of the background, which fills most of the frame: a
+    regular sample of ~20 000 pixels gives them to a fraction of a level, 16-25 times
+    faster than the whole frame of a 720p/1080p video (~5 ms per median at 1080p, with
+    the GIL held: the decoding thread waits).
+    """
+    return max(1, math.isqrt(n // LEVEL_SAMPLES))
 
 
 class _Blob(NamedTuple):
