@@ -19,7 +19,9 @@ Each repetition measures, back to back on the same file:
 * ``track 1T``    -- the whole track stage (sha256 of the input, decode to YUV planes,
                      tracking, track.parquet with provenance) with the stage's settings:
                      one decoder thread, no prefetch;
-* ``track 1T+pf`` -- the same with the decoder in a background thread (``prefetch=8``):
+* ``track 1T+pf`` -- the same with the decoder in a background thread, as the stage runs
+                     it: at least 8 frames ahead (``DECODE_PREFETCH``), as many as fit
+                     ``DECODE_PREFETCH_MB`` (192 MiB: 64 frames at 1080p, 145 at 720p);
                      decoding overlaps tracking on a second core;
 * ``track AUTO``  -- the stage with FFmpeg threads, to compare with ``decode AUTO``.
 
@@ -132,7 +134,8 @@ def measure(video: Path, repeats: int) -> None:
     print(f"video: {video} ({info.codec_context.width}x{info.codec_context.height}, {info.frames} frames, "
           f"{float(info.average_rate):g} fps, {info.codec_context.name})")
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the end; "
-          f"{repeats} repetitions, medians; stage defaults: threads={defaults[0]}, prefetch={defaults[1]}")
+          f"{repeats} repetitions, medians; stage defaults: threads={defaults[0]}, prefetch={defaults[1]} "
+          f"frames or {st.DECODE_PREFETCH_MB:g} MiB")
     print(f"{'':14s}{'wall fps':>10s}{'cpu fps':>10s}   (min..max wall)")
     for k in wall:
         print(f"{k:14s}{med[k]:10.0f}{medc[k]:10.0f}   ({min(wall[k]):.0f}..{max(wall[k]):.0f})")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pendtrack.errors import VideoError
-from pendtrack.video.reader import VideoReader, probe_video, read_frame
+from pendtrack.video.reader import VideoReader, prefetch_depth, probe_video, read_frame
 
 _spec = importlib.util.spec_from_file_location("make_test_videos",
                                                Path(__file__).parent / "data" / "make_test_videos.py")
@@ -131,13 +131,25 @@ def test_zero_frame_video(tmp_path):
                 pass
 
 
+def test_prefetch_depth_fills_the_memory_budget():
+    mib = 2**20
+    assert prefetch_depth(8, 192.0, 1920, 1080) == 192 * mib // (1920 * 1080 * 3 // 2) == 64
+    assert prefetch_depth(8, 0.0, 1920, 1080) == 8  # no budget: the frames asked for
+    assert prefetch_depth(8, 10.0, 3840, 2160) == 8  # a budget smaller than 8 4K frames: still 8
+    assert prefetch_depth(0, 192.0, 1920, 1080) == 0  # no prefetching whatever the budget
+
+
 def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
     video = _encode(tmp_path / "v.mp4", _grey_frames(20))
-    with VideoReader(video) as a, VideoReader(video, prefetch=3) as b:
+    with VideoReader(video) as a, VideoReader(video, prefetch=3) as b, VideoReader(video, prefetch=3,
+                                                                              prefetch_mb=1.0) as c:
+        assert (a.prefetch, b.prefetch) == (0, 3) and c.prefetch > 20  # 1 MiB: > 20 frames of this size
         fa = [(f.index, f.t, f.y.copy()) for f in a]
         fb = [(f.index, f.t, f.y.copy()) for f in b]
-    assert [(i, t) for i, t, _ in fa] == [(i, t) for i, t, _ in fb]
-    assert all(np.array_equal(x, y) for (_, _, x), (_, _, y) in zip(fa, fb))
+        fc = [(f.index, f.t, f.y.copy()) for f in c]  # deeper than the video: every frame queued at once
+    for other in (fb, fc):
+        assert [(i, t) for i, t, _ in fa] == [(i, t) for i, t, _ in other]
+        assert all(np.array_equal(x, y) for (_, _, x), (_, _, y) in zip(fa, other))
     # an error in the decoding thread reaches the consumer
     frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(40)]
     good = _encode(tmp_path / "fs.mp4", frames, faststart=True)

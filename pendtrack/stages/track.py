@@ -26,7 +26,10 @@ log = logging.getLogger(__name__)
 CONFIG_SECTIONS = ("lens", "video", "track")
 MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a track
 DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.py measures both)
-DECODE_PREFETCH = 8  # decode this many frames ahead in a background thread (0: same thread)
+DECODE_PREFETCH = 8  # decode at least this many frames ahead in a background thread (0: same thread)
+# ... or as many as fit this many MiB: the decoder keeps going through the acquisition's whole-frame searches
+# (~0.2 s at 1080p, when 8 frames ahead stopped it for 0.2-0.3 s of a 10-s clip's 1.4 s); 64 frames at 1080p
+DECODE_PREFETCH_MB = 192.0
 
 
 # flags of `track` and `run` named in the errors about the config keys they set (phrase in message -> flag)
@@ -154,9 +157,9 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     except ValueError as exc:
         raise ConfigError(f"[video] {exc} (--start, --end)") from None
     t0 = time.perf_counter()
-    with VideoReader(video, fps=vc.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH, start=vc.start,
-                     end=vc.end) as reader:
-        info = reader.info
+    with VideoReader(video, fps=vc.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH,
+                     prefetch_mb=DECODE_PREFETCH_MB, start=vc.start, end=vc.end) as reader:
+        info, prefetch = reader.info, reader.prefetch
         fisheye = _fisheye(config, info.width, info.height)
         sampler = make_sampler(colour, fisheye, corrected=corrected)
         with progress_bar(info.n_frames or None, "track", enabled=progress) as advance:
@@ -185,7 +188,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         "sampler": type(sampler).__name__,
         "lens_output_fov_deg": fisheye.output_fov_deg,
         "decode_threads": DECODE_THREADS,
-        "decode_prefetch": DECODE_PREFETCH,
+        "decode_prefetch": prefetch,
         "tracking_fps": n / elapsed if elapsed > 0 else None,
         "time_range_s": {"start": vc.start, "end": vc.end if vc.end > 0 else None},
         **result.to_dict(),

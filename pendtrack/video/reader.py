@@ -167,6 +167,29 @@ def probe_video(path: str | Path) -> VideoInfo:
     return info
 
 
+def prefetch_depth(frames: int, budget_mb: float, width: int, height: int) -> int:
+    """Frames to decode ahead: ``frames``, or as many 4:2:0 frames as fit ``budget_mb`` if more.
+
+    Parameters
+    ----------
+    frames : int
+        The least depth [frames]; <= 0: no prefetching (0 whatever the budget).
+    budget_mb : float
+        Memory the queued frames may take [MiB] (0: just ``frames``).
+    width, height : int
+        Frame size [px]; a frame takes ``width * height * 1.5`` bytes.
+
+    Returns
+    -------
+    int
+        Depth [frames], 0 or >= ``frames``.
+    """
+    if frames <= 0:
+        return 0
+    frame_bytes = max(1, width * height * 3 // 2)
+    return max(frames, int(budget_mb * 2**20) // frame_bytes)
+
+
 class VideoReader:
     """Iterate over a video's frames as :class:`YuvFrame` (a context manager).
 
@@ -183,6 +206,11 @@ class VideoReader:
         If > 0, decode in a background thread up to this many frames ahead of the
         consumer, so decoding overlaps the consumer's work on another core (FFmpeg
         releases the GIL while decoding). Frames and errors arrive in the same order.
+    prefetch_mb : float
+        With ``prefetch``, decode ahead as many frames as fit this many MiB (4:2:0
+        planes), if more than ``prefetch`` (see :func:`prefetch_depth`): a consumer that
+        pauses (a search of whole frames) does not stop the decoder. 0: ``prefetch`` frames.
+        The depth used is the attribute ``prefetch`` [frames].
     start, end : float
         Yield only the frames with ``start <= t <= end`` [s] (``t`` as above, 0 at the
         video's first frame); ``end = 0`` reads to the last frame. Earlier frames are
@@ -198,7 +226,7 @@ class VideoReader:
     """
 
     def __init__(self, path: str | Path, *, fps: float = 0.0, threads: bool = False, prefetch: int = 0,
-                 start: float = 0.0, end: float = 0.0) -> None:
+                 prefetch_mb: float = 0.0, start: float = 0.0, end: float = 0.0) -> None:
         self.path = Path(path)
         if fps < 0:
             raise ValueError("fps must be >= 0")
@@ -206,7 +234,8 @@ class VideoReader:
         self._fps = fps
         self._start = float(start)
         self._end = float(end)
-        self._prefetch = int(prefetch)
+        if prefetch_mb < 0:
+            raise ValueError("prefetch_mb must be >= 0")
         self._container = _open(self.path)
         self._stream = self._container.streams.video[0]
         if threads:
@@ -214,6 +243,7 @@ class VideoReader:
         else:
             self._stream.thread_count = 1
         self.info = _info(self.path, self._stream)
+        self.prefetch = prefetch_depth(int(prefetch), prefetch_mb, self.info.width, self.info.height)
         self.n_decoded = 0
         self._prefetcher: _Prefetcher | None = None
 
@@ -235,11 +265,11 @@ class VideoReader:
 
     def __iter__(self) -> Iterator[YuvFrame]:
         decoded: Iterator[av.VideoFrame] = self._container.decode(self._stream)
-        if self._prefetch > 0:
+        if self.prefetch > 0:
             if self._prefetcher is not None:
                 self._prefetcher.close()
             # the thread only decodes; timestamps and planes are the consumer's (the decoder is the slower side)
-            self._prefetcher = _Prefetcher(decoded, self._prefetch)
+            self._prefetcher = _Prefetcher(decoded, self.prefetch)
             decoded = iter(self._prefetcher)
         return self._frames(decoded)
 
