@@ -21,7 +21,7 @@ Each repetition measures, back to back on the same file:
                      one decoder thread, no prefetch;
 * ``track 1T+pf`` -- the same with the decoder in a background thread, as the stage runs
                      it: at least 8 frames ahead (``DECODE_PREFETCH``), as many as fit
-                     ``DECODE_PREFETCH_MB`` (192 MiB: 64 frames at 1080p, 145 at 720p);
+                     ``DECODE_PREFETCH_MB`` (256 MiB: 86 frames at 1080p, 194 at 720p);
                      decoding overlaps tracking on a second core;
 * ``track AUTO``  -- the stage with FFmpeg threads, to compare with ``decode AUTO``.
 

@@ -27,9 +27,12 @@ CONFIG_SECTIONS = ("lens", "video", "track")
 MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a track
 DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.py measures both)
 DECODE_PREFETCH = 8  # decode at least this many frames ahead in a background thread (0: same thread)
-# ... or as many as fit this many MiB: the decoder keeps going through the acquisition's whole-frame searches
-# (~0.2 s at 1080p, when 8 frames ahead stopped it for 0.2-0.3 s of a 10-s clip's 1.4 s); 64 frames at 1080p
-DECODE_PREFETCH_MB = 192.0
+# ... or as many as fit this many MiB (86 frames at 1080p, 194 at 720p, 21 at 4K), held only while the consumer
+# lags: the decoder keeps going through the acquisition, whose choice of the marker costs ~0.2 s on one frame at
+# 1080p (10 whole-frame searches of the window); 8 frames ahead, that stopped the decoder for 0.2-0.3 s of a
+# 10-s clip's ~1.2 s of decoding. Per-frame times of the serial stage in a two-core pipeline model
+# (no contention): track/decode 0.83 with 8 frames, 0.89 with 64, 0.92 with 86, 0.96 with 110 (1080p/60).
+DECODE_PREFETCH_MB = 256.0
 
 
 # flags of `track` and `run` named in the errors about the config keys they set (phrase in message -> flag)
