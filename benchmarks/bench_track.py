@@ -28,6 +28,14 @@ Each repetition measures, back to back on the same file:
 Rates are frames per second of wall-clock time (median over repetitions) and, for the
 single-threaded variants, per second of process CPU time, which is steadier on a shared
 machine. The ratio of interest is ``track / decode`` with the same decoder settings.
+
+On a loaded machine the two threads of ``track 1T+pf`` seldom get two cores, and its wall
+ratio says little. The ``model`` line is steadier: each repetition also times, in CPU
+seconds, every frame's decoding and every frame's tracking in a serial run of the stage,
+and replays them through a decoder and a consumer on two free cores joined by a queue of
+the stage's depth (and of 8 frames, the former default) -- the ratio a quiet machine
+would give without contention between the two threads (the GIL, shared caches), so an
+upper bound of ``1T+pf``.
 """
 
 from __future__ import annotations
@@ -38,11 +46,13 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import av
 
 from pendtrack.config import Config
+from pendtrack.video.reader import VideoReader, prefetch_depth, probe_video
 
 ROOT = Path(__file__).resolve().parents[1]
 CACHE_1080P = ROOT / ".benchmarks" / "bench_1080p60"
@@ -95,6 +105,67 @@ def track(video: Path, out: Path, *, threads: bool, prefetch: int) -> tuple[int,
     return int(res.facts["frames"]), time.perf_counter() - w0, time.process_time() - c0
 
 
+class _TimedReader(VideoReader):
+    """The stage's reader, recording each frame's decoding and the consumer's work on it [CPU s]."""
+
+    runs: list[tuple[list[float], list[float]]] = []
+
+    def _frames(self, decoder: Iterator) -> Iterator:
+        decode: list[float] = []
+        work: list[float] = []
+        self.runs.append((decode, work))
+
+        def timed() -> Iterator:
+            while True:
+                c0 = time.thread_time()
+                try:
+                    frame = next(decoder)
+                except StopIteration:
+                    return
+                decode.append(time.thread_time() - c0)
+                yield frame
+
+        for frame in super()._frames(timed()):
+            c0 = time.thread_time()
+            yield frame
+            work.append(time.thread_time() - c0)
+
+
+def pipeline_wall(decode: list[float], work: list[float], depth: int) -> float:
+    """Seconds for a decoder and a consumer on two cores to get through frames costing ``decode`` and
+    ``work`` [s each], the decoder at most ``depth`` frames ahead of the consumer's next frame."""
+    put = [0.0] * len(decode)  # when frame i enters the queue
+    taken = [0.0] * len(decode)  # when the consumer takes it
+    done = 0.0
+    for i, (d, w) in enumerate(zip(decode, work)):
+        decoded = (put[i - 1] if i else 0.0) + d
+        put[i] = max(decoded, taken[i - depth] if i >= depth else 0.0)
+        taken[i] = max(done, decoded)
+        done = taken[i] + w
+    return done
+
+
+def model(video: Path, out: Path) -> dict[str, float]:
+    """``track / decode`` of the two-core pipeline model (see the module's docstring) at the stage's
+    prefetch depth and at 8 frames, from one serial run of the stage."""
+    import pendtrack.stages.track as st
+
+    _TimedReader.runs.clear()
+    st.VideoReader = _TimedReader
+    try:
+        c0 = time.thread_time()
+        track(video, out, threads=False, prefetch=0)
+        total = time.thread_time() - c0
+    finally:
+        st.VideoReader = VideoReader
+    (decode, work), = _TimedReader.runs
+    other = total - sum(decode) - sum(work)  # hashing, setup, the artifact
+    info = probe_video(video)
+    depth = prefetch_depth(8, st.DECODE_PREFETCH_MB, info.width, info.height)
+    return {f"{depth} ahead": sum(decode) / (pipeline_wall(decode, work, depth) + other),
+            "8 ahead": sum(decode) / (pipeline_wall(decode, work, 8) + other)}
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("video", nargs="*", help="videos to measure (default: the 720p/120 and 1080p/60 cases)")
@@ -112,6 +183,7 @@ def measure(video: Path, repeats: int) -> None:
     defaults = (st.DECODE_THREADS, st.DECODE_PREFETCH)
     wall: dict[str, list[float]] = {}
     cpu: dict[str, list[float]] = {}
+    models: dict[str, list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         track(video, out, threads=False, prefetch=0)  # warm-up: imports, file cache
@@ -127,6 +199,8 @@ def measure(video: Path, repeats: int) -> None:
                 n, w, c = run()
                 wall.setdefault(name, []).append(n / w)
                 cpu.setdefault(name, []).append(n / c)
+            for name, ratio in model(video, out).items():
+                models.setdefault(name, []).append(ratio)
     st.DECODE_THREADS, st.DECODE_PREFETCH = defaults
     med = {k: statistics.median(v) for k, v in wall.items()}
     medc = {k: statistics.median(v) for k, v in cpu.items()}
@@ -143,6 +217,8 @@ def measure(video: Path, repeats: int) -> None:
     print(f"  1T    wall {med['track 1T'] / med['decode 1T']:.2f}   cpu {medc['track 1T'] / medc['decode 1T']:.2f}")
     print(f"  1T+pf wall {med['track 1T+pf'] / med['decode 1T']:.2f}   (decoder on its own thread)")
     print(f"  AUTO  wall {med['track AUTO'] / med['decode AUTO']:.2f}")
+    print("  model (serial run's per-frame CPU times, two free cores, no contention): 1T+pf "
+          + ", ".join(f"{statistics.median(v):.2f} ({k})" for k, v in models.items()))
     print(f"  decode AUTO / decode 1T wall {med['decode AUTO'] / med['decode 1T']:.2f}")
     sys.stdout.flush()
 
