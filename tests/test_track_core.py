@@ -5,7 +5,7 @@ import pytest
 
 from pendtrack.errors import TrackingError
 from pendtrack.track.colour import MarkerColour, parse_marker_colour, rgb_to_ycbcr
-from pendtrack.track.detect import find_marker, marker_in_roi
+from pendtrack.track.detect import find_marker, level_step, marker_in_roi, median_of
 from pendtrack.track.match import match_template, quadratic_peak, weighted_centroid
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
 from pendtrack.track.tracker import TrackParams, track_frames
@@ -323,3 +323,18 @@ def test_bad_params():
     for kw in ({"min_score": 2.0}, {"search_margin_px": 0}, {"evolution_rate": 1.0}, {"refine": "magic"}):
         with pytest.raises(ValueError):
             TrackParams(**kw)
+
+
+def test_median_of_is_numpys_median():
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3, 4, 5, 88, 89, 1000):
+        for a in (rng.normal(size=n).astype(np.float32), rng.integers(0, 4, n).astype(np.float32),
+                  rng.normal(size=(n, 3))):
+            assert median_of(a) == float(np.median(a))
+
+
+def test_level_step_keeps_every_pixel_of_small_frames_and_20000_of_large_ones():
+    assert level_step(64 * 48) == 1 and level_step(39_999) == 1
+    for h, w in ((360, 640), (540, 960), (1080, 1920)):  # half-resolution grids of 720p, 1080p and 4K
+        s = level_step(h * w)
+        assert s > 1 and len(range(0, h, s)) * len(range(0, w, s)) >= 20_000

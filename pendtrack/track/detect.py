@@ -325,9 +325,22 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
     return sorted(out, key=lambda d: -d.radius)
 
 
+def median_of(a: np.ndarray) -> float:
+    """``np.median(a)`` of a non-empty array without NaNs -- the same value (the mean of its middle one or two
+    order statistics, as NumPy takes it) -- without NumPy's generic reduction machinery, which costs ~10x
+    the work on the small arrays of :func:`_refine` (a search frame refines ~18 blobs at 1080p)."""
+    flat = a.ravel()
+    n = flat.size
+    if n < 2:
+        return float(np.median(flat))
+    k = n // 2
+    part = np.partition(flat, (k - 1, k))
+    return float(part[k - 1:k + 1].mean() if n % 2 == 0 else part[k:k + 1].mean())
+
+
 def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection | None:
     """Centroid of the brightest blob of a feature window; ``(x0, y0)`` its frame offset."""
-    bg = float(np.median(np.concatenate([f[0], f[-1], f[:, 0], f[:, -1]])))
+    bg = median_of(np.concatenate([f[0], f[-1], f[:, 0], f[:, -1]]))
     peak = float(np.percentile(f, 99.5))
     if peak - bg <= 0:
         return None
@@ -346,7 +359,7 @@ def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection 
     total = float(wgt.sum())
     cx = float(wgt.sum(axis=0) @ np.arange(f.shape[1]) / total)
     cy = float(wgt.sum(axis=1) @ np.arange(f.shape[0]) / total)
-    contrast = float(np.median(f[blob])) - bg
+    contrast = median_of(f[blob]) - bg
     return Detection(x0 + cx, y0 + cy, radius, contrast, bg, colour)
 
 
