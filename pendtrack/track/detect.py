@@ -79,9 +79,9 @@ def level_step(n: int) -> int:
     Every ``s``-th pixel in each axis, ``s`` the largest step keeping at least
     :data:`LEVEL_SAMPLES` of the ``n`` pixels (1 for small frames: every pixel). These
     levels are robust statistics of the background, which fills most of the frame: a
-    regular sample of ~20 000 pixels gives them to a fraction of a level, 16-25 times
-    faster than the whole frame of a 720p/1080p video (~5 ms per median at 1080p, with
-    the GIL held: the decoding thread waits).
+    regular sample of ~20 000 pixels estimates them as well (the very same levels on the
+    benchmark's 720p and 1080p videos), 9-25 times faster than the whole frame of a
+    720p/1080p video (~5 ms per median at 1080p, with the GIL held: the decoding thread waits).
     """
     return max(1, math.isqrt(n // LEVEL_SAMPLES))
 
@@ -259,7 +259,7 @@ def find_marker(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColou
     Notes
     -----
     On the half-resolution feature: background = median, noise = 1.4826 MAD of neighbour
-    differences / sqrt(2); the marker
+    differences / sqrt(2), both over a grid sample of large frames (:func:`level_step`); the marker
     must exceed the background by :data:`MIN_CONTRAST` levels and :data:`MIN_SIGMAS`
     noise. Blobs above half the peak contrast are candidates; the one with the largest
     integrated contrast among compact ones (filling >= 40 % of their bounding box, aspect
@@ -327,8 +327,8 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
 
 def median_of(a: np.ndarray) -> float:
     """``np.median(a)`` of a non-empty array without NaNs -- the same value (the mean of its middle one or two
-    order statistics, as NumPy takes it) -- without NumPy's generic reduction machinery, which costs ~10x
-    the work on the small arrays of :func:`_refine` (a search frame refines ~18 blobs at 1080p)."""
+    order statistics, as NumPy takes it) -- without NumPy's generic reduction machinery, which triples the
+    time on the small arrays of :func:`_refine` (a search frame refines ~18 blobs at 1080p)."""
     flat = a.ravel()
     n = flat.size
     if n < 2:
