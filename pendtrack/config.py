@@ -112,6 +112,13 @@ class FitConfig:
     bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
     start_budget: int = 30  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
     ladder: bool = True  # each start fits a growing window (three periods, doubled up to the record): no phase slips
+    # a start whose cost on a shorter window of the ladder (at least 1/4 of the record) exceeds this many times
+    # the lowest any start up to it reached there stops there; 0 = never. Off: on the 60-s bench record starts
+    # 500x the lowest on the 23-s window of the fractional model still ended among the accepted ones
+    hopeless_ratio: float = 0.0
+    # a start that, after a shorter window, is within this share of the start ranges' half-widths of a lower
+    # start (every parameter) takes that start's end point (its path from there is the other's); 0 = never
+    merge_tol: float = 1e-5
     trust_region_polish: bool = False  # finish the best fit by a trust-region least-squares run too (discovery: on)
     workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
     # wall-time budget of each model's fit [s]; 0 = none. Three models of a 60 s record then fit in
@@ -333,6 +340,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.seed": (_ge(0),),
     "fit.bootstrap": (_ge(0),),
     "fit.start_budget": (_ge(1),),
+    "fit.hopeless_ratio": (_ge(0),),
+    "fit.merge_tol": (_ge(0),),
     "fit.workers": (_ge(0),),
     "fit.time_budget_s": (_ge(0),),
     "fit.time_reserve": (_within(0, 1, lo_open=True, hi_open=True),),

@@ -94,14 +94,16 @@ def test_deadlines_split_the_budget_and_keep_the_reserve():
     assert free.search == free.refine() == free.end() == float("inf")
 
 
-def test_time_budget_stops_the_search_and_is_recorded():
+@pytest.mark.parametrize(("workers", "budget", "slack"), [(1, 3.0, 2.0), (2, 6.0, 4.0)])
+def test_time_budget_stops_the_search_and_is_recorded(workers, budget, slack):
     t, theta, omega = _record(20.0)
-    opts = replace(FitConfig(), n_starts=400, workers=1, profile=True, time_budget_s=3.0)
+    opts = replace(FitConfig(), n_starts=400, workers=workers, profile=True, time_budget_s=budget)
     t_wall = time.monotonic()
     res = fit_model(get_model("standard"), t, theta, omega, options=opts)
     elapsed = time.monotonic() - t_wall
-    # the budget, plus the sandwich's few Jacobians and one evaluation's overrun (a 20 s record at 60 Hz: ms each)
-    assert elapsed < 3.0 + 2.0
+    # the budget, plus the sandwich's few Jacobians and one evaluation's overrun (a 20 s record at 60 Hz: ms
+    # each); with workers, also the pool's shut-down after the windows running at the deadline stop
+    assert elapsed < budget + slack
     d = res.to_dict()
     assert d["stopped"] == "time budget"
     assert 1 <= d["n_starts"] < d["n_starts_planned"] == 400

@@ -20,7 +20,8 @@ from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import FitResult, Observation, ParamEstimate, build_problem, cross_model_relations, fit_model
 from pendtrack.fitting.cost import residual_vector
-from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, local_fit, run_starts, window_ladder
+from pendtrack.fitting.ladder import LadderRules, run_ladder
+from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
 
@@ -183,13 +184,50 @@ def test_starts_in_worker_processes_equal_serial_run():
     starts = draw_starts(np.array([5.0, 0.05, 0.8, 0.0]), np.array([0.05, 0.02, 0.02, 0.1]), prob.lower,
                          prob.upper, 4, seed=1)
     ends = (3.0, prob.t_end)
-    serial = run_starts(prob, starts, ends, workers=1)
+    serial = run_ladder(prob, starts, ends, workers=1)
     ticks = []
-    parallel = run_starts(prob, starts, ends, workers=2, on_progress=ticks.append)
+    parallel = run_ladder(prob, starts, ends, workers=2, on_progress=ticks.append)
     assert len(ticks) == 4
-    for a, b in zip(serial, parallel):
+    for k, (a, b) in enumerate(zip(serial, parallel)):
         np.testing.assert_allclose(a.x, b.x, rtol=1e-10)
         assert a.cost == pytest.approx(b.cost, rel=1e-10)
+        alone = local_fit(prob, starts[k], ends)  # without rules, each start is local_fit's path
+        np.testing.assert_array_equal(a.x, alone.x)
+        assert (a.cost, a.nfev, a.message) == (alone.cost, alone.nfev, alone.message)
+
+
+def test_ladder_rules_stop_hopeless_starts_and_merge_duplicates_alike_in_any_number_of_workers():
+    t, th, om, _ = toy_data(seconds=8.0)
+    prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)
+    half = np.array([0.05, 0.02, 0.02, 0.1])
+    starts = draw_starts(np.array([5.0, 0.05, 0.8, 0.0]), half, prob.lower, prob.upper, 6, seed=1)
+    starts[3] = starts[1]  # a duplicate: the same path as start 1
+    ends = (3.0, prob.t_end)
+    rules = LadderRules(hopeless_ratio=30.0, merge_tol=1e-5, scale=half)
+    serial = run_ladder(prob, starts, ends, rules=rules, workers=1)
+    parallel = run_ladder(prob, starts, ends, rules=rules, workers=2)
+    free = run_ladder(prob, starts, ends, workers=1)
+    for a, b in zip(serial, parallel):
+        assert (a.cost, a.message, a.nfev) == (b.cost, b.message, b.nfev)
+        np.testing.assert_array_equal(a.x, b.x)
+    assert serial[3].message.startswith("merged with start ")  # with start 1, or with 0 if 1 merged into it
+    for o in serial:
+        if o.message.startswith("merged with start "):
+            rep = int(o.message.split()[3].rstrip(":"))
+            np.testing.assert_array_equal(o.x, free[rep].x)  # the representative's end point
+            assert o.cost == free[rep].cost and o.nfev < free[o.index].nfev
+    # hopeless: on this toy every start reaches the minimum on the first window (costs equal to ~1e-12), so a
+    # ratio a hair above 1 stops all but the lowest there -- the mechanics; the margin of the default is measured
+    hair = run_ladder(prob, starts, ends, rules=LadderRules(hopeless_ratio=1 + 1e-14), workers=2)
+    first = [fit_window(prob.restrict(3.0), s, last=False) for s in starts]
+    low = min(range(6), key=lambda i: first[i].cost)
+    assert hair[low].message == free[low].message and hair[low].cost == free[low].cost
+    stopped = [o for o in hair if "times the lowest" in o.message]
+    assert stopped
+    for o in stopped:
+        assert not o.success and first[o.index].cost > first[low].cost
+        np.testing.assert_array_equal(o.x, first[o.index].x)  # it ends where the window left it,
+        assert o.cost == prob.cost_value(o.x)  # its cost taken on the whole window
 
 
 def test_fit_model_on_toy_gives_calibrated_result_and_json():

@@ -46,7 +46,7 @@ from pendtrack.fitting.uncertainty import assess
 
 
 def check_options(options: FitConfig, *, source: str = "the data") -> None:
-    """FitError if ``options`` cannot run a fit (unknown cost or Jacobian, no start, 5/4 rule below 1)."""
+    """FitError if ``options`` cannot run a fit (unknown cost or Jacobian, no start, 5/4 rule or hopeless ratio below 1)."""
     if options.cost not in COSTS:
         raise FitError(f"unknown cost '{options.cost}' (use {' or '.join(COSTS)})", path=source)
     if options.jacobian not in JACOBIANS:
@@ -55,6 +55,8 @@ def check_options(options: FitConfig, *, source: str = "the data") -> None:
         raise FitError(f"n_starts must be >= 1, got {options.n_starts}", path=source)
     if options.accept_ratio < 1:
         raise FitError(f"accept_ratio must be >= 1, got {options.accept_ratio}", path=source)
+    if 0 < options.hopeless_ratio < 1:
+        raise FitError(f"hopeless_ratio must be 0 (off) or >= 1, got {options.hopeless_ratio}", path=source)
 
 
 def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *,

@@ -14,7 +14,9 @@ landscape then has a local minimum every period. Each start therefore fits a *gr
 the previous optimum, and so on up to the whole record. Omega0 is pinned to ~1e-3 by the
 first window, to ~1e-4 by the next ones, before the long record is seen.
 
-Starts run in parallel in worker processes (:func:`pendtrack.parallel.process_pool`: ``spawn``
+The search runs the ladder window by window (:func:`pendtrack.fitting.ladder.run_ladder`:
+duplicates merged between windows); :func:`run_tasks` runs whole :func:`local_fit` tasks (the
+bootstrap's refits). Starts run in parallel in worker processes (:func:`pendtrack.parallel.process_pool`: ``spawn``
 context, one BLAS/OpenMP/numba thread per worker); each task receives the pickled
 :class:`~pendtrack.fitting.problem.FitProblem` (plain arrays) and one start vector. Workers
 warm the simulator once (numba kernels load from their ``cache=True`` cache or compile).
@@ -265,14 +267,93 @@ class _Tracker:
         return jac
 
 
+@dataclass(frozen=True)
+class WindowFit:
+    """One window of a start's ladder, fitted (:func:`fit_window`).
+
+    Attributes
+    ----------
+    x : ndarray
+        The best point found (units of each parameter).
+    cost : float
+        The window's cost there.
+    calls : int
+        Residual evaluations spent, Jacobians counted as their finite differences' worth.
+    status : int
+        Levenberg-Marquardt status (> 0 converged, 5 settled on its budget, 0 stopped).
+    message : str
+    timed_out : bool
+        Stopped by the deadline.
+    """
+
+    x: np.ndarray
+    cost: float
+    calls: int
+    status: int
+    message: str
+    timed_out: bool
+
+
+def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | None = None, central: bool = False,
+               deadline: float = math.inf, spent: int = 0) -> WindowFit:
+    """Least squares from ``x`` on one window ``sub`` of a start's ladder (:func:`local_fit`'s step).
+
+    Parameters
+    ----------
+    sub : FitProblem
+        The problem on this window (:meth:`FitProblem.restrict`); its bounds are the whole problem's.
+    x : ndarray
+        Start vector, inside the bounds.
+    last : bool
+        The whole window: tolerance ``FINAL_TOL`` and ``max_nfev`` (default ``FINAL_ITERATIONS``)
+        Jacobians' worth; otherwise ``RUNG_TOL`` and ``RUNG_ITERATIONS``.
+    max_nfev, central, deadline
+        As in :func:`local_fit`.
+    spent : int
+        Evaluations the start spent before this window (for the message only).
+    """
+    p = x.size
+    tol = FINAL_TOL if last else RUNG_TOL
+    iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
+    tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline)
+    try:
+        res = levenberg_marquardt(tracker, tracker.jac, x, lower=sub.lower, upper=sub.upper,
+                                  ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
+        status, message = res.status, res.message
+    except _Budget:
+        if tracker.timed_out:
+            status, message = 0, f"stopped by the {TIME_BUDGET} after {spent + tracker.calls} evaluations"
+        elif tracker.settled:
+            status, message = 5, f"cost settled (budget of {tracker.calls} evaluations spent)"
+        else:
+            status, message = 0, f"stopped after {tracker.calls} evaluations"
+    if tracker.best_x is None:
+        raise ValueError("least squares made no evaluation")  # programming error
+    return WindowFit(x=tracker.best_x, cost=tracker.best_cost, calls=tracker.calls, status=status, message=message,
+                     timed_out=tracker.timed_out)
+
+
+def windows(problem: FitProblem, window_ends: Sequence[float]) -> list[tuple[FitProblem, bool]]:
+    """The ladder's windows that hold enough samples (at least 3 per fitted parameter): ``(sub, last)``."""
+    out = []
+    for k, end in enumerate(window_ends):
+        last = k == len(window_ends) - 1
+        sub = problem if last else problem.restrict(end)
+        if sub.n >= 3 * problem.lower.size:
+            out.append((sub, last))
+    if not out:
+        raise ValueError("every window is too short for the number of parameters")
+    return out
+
+
 def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float], *, index: int = 0,
               max_nfev: int | None = None, central: bool = False, deadline: float = math.inf) -> StartOutcome:
     """Least squares from ``x0`` over each window of the ladder, warm-starting each from the last.
 
-    Levenberg-Marquardt with geodesic acceleration (:func:`pendtrack.fitting.lm.levenberg_marquardt`),
-    bounds by projection. The shorter windows only have to pin Omega0 and the phase, so their
-    evaluations are capped (``RUNG_ITERATIONS`` Jacobians' worth) and their tolerance is loose;
-    the whole window is fitted to ``FINAL_TOL``.
+    Levenberg-Marquardt (:func:`pendtrack.fitting.lm.levenberg_marquardt`), bounds by
+    projection, one :func:`fit_window` per window. The shorter windows only have to pin Omega0
+    and the phase, so their evaluations are capped (``RUNG_ITERATIONS`` Jacobians' worth) and
+    their tolerance is loose; the whole window is fitted to ``FINAL_TOL``.
 
     Parameters
     ----------
@@ -297,47 +378,32 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
     StartOutcome
     """
     x = inside_bounds(np.asarray(x0, dtype=float), problem.lower, problem.upper)
-    p = x.size
     calls = 0
-    tracker = None
-    status, message = 0, ""
-    whole = False  # the last tracker ran on the whole window
-    for k, end in enumerate(window_ends):
-        last = k == len(window_ends) - 1
-        sub = problem if last else problem.restrict(end)
-        if sub.n < 3 * p:
-            continue
-        if tracker is not None and tracker.timed_out:
+    fit, whole = None, False
+    for sub, last in windows(problem, window_ends):
+        if fit is not None and fit.timed_out:
             break
-        tol = FINAL_TOL if last else RUNG_TOL
-        iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
-        tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline)
-        whole = last
-        try:
-            res = levenberg_marquardt(tracker, tracker.jac, x, lower=problem.lower, upper=problem.upper,
-                                      ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
-            status, message = res.status, res.message
-        except _Budget:
-            if tracker.timed_out:
-                status, message = 0, f"stopped by the {TIME_BUDGET} after {calls + tracker.calls} evaluations"
-            elif tracker.settled:
-                status, message = 5, f"cost settled (budget of {tracker.calls} evaluations spent)"
-            else:
-                status, message = 0, f"stopped after {tracker.calls} evaluations"
-        calls += tracker.calls
-        if tracker.best_x is None:
-            raise ValueError("least squares made no evaluation")  # programming error
-        x = tracker.best_x
-    if tracker is None or tracker.best_r is None:
-        raise ValueError("every window is too short for the number of parameters")
-    timed_out = tracker.timed_out
+        fit = fit_window(sub, x, last=last, max_nfev=max_nfev, central=central, deadline=deadline, spent=calls)
+        calls, x, whole = calls + fit.calls, fit.x, last
+    assert fit is not None
+    return finish(problem, index, x0, fit, calls, whole=whole)
+
+
+def finish(problem: FitProblem, index: int, x0: np.ndarray, fit: WindowFit, calls: int, *, whole: bool,
+           message: str | None = None) -> StartOutcome:
+    """The outcome of a start whose last fitted window was ``fit``; its cost on the whole window.
+
+    ``whole``: that window was the whole one (else one more evaluation gives the whole window's cost:
+    a start stopped on a shorter window by the deadline, or early).
+    """
     if whole:
-        cost = sumsq(tracker.best_r)
-    else:  # stopped by the deadline on a shorter window: the cost on the whole window, as for every start
-        cost = sumsq(problem.residuals(x))
+        cost = fit.cost
+    else:
+        cost = sumsq(problem.residuals(fit.x))
         calls += 1
-    return StartOutcome(index=index, x0=np.asarray(x0, dtype=float), x=x, cost=cost,
-                        success=status > 0 and not timed_out, nfev=calls, message=message, timed_out=timed_out)
+    return StartOutcome(index=index, x0=np.asarray(x0, dtype=float), x=fit.x, cost=cost,
+                        success=fit.status > 0 and not fit.timed_out and whole, nfev=calls,
+                        message=fit.message if message is None else message, timed_out=fit.timed_out)
 
 
 def _warm(problem: FitProblem, x: np.ndarray) -> None:
@@ -410,15 +476,3 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
             if on_progress:
                 on_progress(1)
     return sorted(outcomes, key=lambda o: o.index)
-
-
-def run_starts(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *, workers: int = 0,
-               max_nfev: int | None = None, on_progress: Callable[[int], None] | None = None,
-               deadline: float = math.inf) -> list[StartOutcome]:
-    """Run :func:`local_fit` from every start (rows of ``starts``) over the ladder ``window_ends`` [s].
-
-    See :func:`run_tasks` for ``workers``, ``max_nfev``, ``on_progress`` and ``deadline``.
-    """
-    ends = tuple(float(e) for e in window_ends)
-    return run_tasks([(problem, x0, ends) for x0 in starts], workers=workers, max_nfev=max_nfev,
-                     on_progress=on_progress, deadline=deadline)

@@ -18,8 +18,8 @@ import numpy as np
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import Setup
-from pendtrack.fitting.multistart import (TIME_BUDGET, StartOutcome, draw_starts, inside_bounds, run_starts,
-                                          window_ladder)
+from pendtrack.fitting.ladder import LadderRules, run_ladder
+from pendtrack.fitting.multistart import TIME_BUDGET, StartOutcome, draw_starts, inside_bounds, window_ladder
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +65,8 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     setup : Setup
         From :func:`pendtrack.fitting.estimate.estimate`.
     options : FitConfig
-        Uses ``n_starts``, ``ladder`` and ``start_budget``.
+        Uses ``n_starts``, ``ladder``, ``start_budget``, ``hopeless_ratio`` and ``merge_tol``
+        (:class:`pendtrack.fitting.ladder.LadderRules`: which starts end before the whole window).
     seed : int
         Seed of the start draws.
     workers : int
@@ -92,7 +93,8 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
         starts = np.vstack((starts, inside_bounds(np.array(rows), problem.lower, problem.upper)))
     ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end) if options.ladder
             else (problem.t_end,))
-    outcomes = run_starts(problem, starts, ends, workers=workers, max_nfev=options.start_budget,
+    rules = LadderRules(hopeless_ratio=options.hopeless_ratio, merge_tol=options.merge_tol, scale=setup.half_widths)
+    outcomes = run_ladder(problem, starts, ends, rules=rules, workers=workers, max_nfev=options.start_budget,
                           on_progress=on_progress, deadline=deadline)
     xs = np.array([o.x for o in outcomes])
     costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])

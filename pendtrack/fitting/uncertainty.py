@@ -7,7 +7,8 @@ Three numbers per parameter:
     parameter. With a local optimiser that converges (unlike the paper's annealing, which
     stopped anywhere inside the valley) the accepted starts meet at the same minimum unless the
     landscape has several nearly equal minima, so ``u_paper`` measures *multimodality*, and is
-    often far below the statistical error.
+    often far below the statistical error. Over every start's end point: a start merged with
+    another on the growing windows (:mod:`pendtrack.fitting.ladder`) counts with that one's.
 ``u_region``
     The half-width of the region Xi^2 <= (5/4) Xi^2_min itself, from the quadratic expansion at
     the optimum: what the paper's procedure tends to when the sampler explores the whole valley.
