@@ -117,6 +117,54 @@ def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *
     return cand, reduced
 
 
+def _replace_earlier(ctx: _Context, current: FitPair, meas_kept: Sequence[str], accepted: Sequence[str],
+                     others: Sequence[str], *, step: int) -> tuple[list[Candidate], tuple | None]:
+    """Sequential replacement: would another effect do better in the place of one kept earlier?
+
+    Forward selection keeps the effect that earns its keep with the lowest BIC at each step, and
+    a flexible effect kept first can stand in for another: memory with ``beta`` near 1 or 2 is a
+    local, velocity-dependent inertia and absorbs most of an added mass, which then no longer
+    earns its keep beside it (measured: added mass + time-varying damping at 120 Hz found as
+    memory + time-varying damping). For every effect ``e`` kept *before* the last one, the model
+    without ``e`` is fitted, and every catalogue effect ``f`` not in the model is added to it by the
+    usual rules (held-out and BIC against the model without ``e``). A replacement that earns its
+    keep there *and* gives a lower BIC than the current model is a better model of the same size
+    or smaller. (The last effect kept needs no such test: its step already compared every
+    alternative against the same model.)
+
+    Returns
+    -------
+    judged : list of Candidate
+        Every replacement tried (for the record).
+    best : tuple or None
+        ``(e, candidate, pair, reduced)`` of the lowest-BIC replacement that qualifies.
+    """
+    dc = ctx.config.discover
+    judged_all: list[Candidate] = []
+    best = None
+    assert current.full is not None
+    for e in accepted[:-1]:
+        if not others:
+            break
+        _, reduced = _recheck(ctx, current, (*meas_kept, *accepted), e, kind="effect", step=step)
+        if reduced.error or reduced.full is None or reduced.train is None:
+            continue
+        kept = (*meas_kept, *(a for a in accepted if a != e))
+        warm = warm_start(reduced)
+        starts = [scaled_starts(ctx.baseline, kept, f, warm, ctx.data, memory_s=ctx.config.models.memory_s)
+                  for f in others]
+        judged, pairs = ctx.evaluate(reduced, kept, [(f,) for f in others], starts, [0.0] * len(others), step=step,
+                                     kind="effect", seed=dc.seed + 300 + step)
+        for c, p in zip(judged, pairs):
+            better = bool(c.earns_keep and p.full is not None and p.full.bic < current.full.bic)
+            judged_all.append(replace(c, note=f"tried in the place of {e}: " + (
+                f"BIC {p.full.bic - current.full.bic:+.1f} against the current model" if p.full is not None
+                else c.reason())))
+            if better and (best is None or p.full.bic < best[2].full.bic):
+                best = (e, c, p, reduced)
+    return judged_all, best
+
+
 def _step(best: Candidate, current: FitPair, pair: FitPair) -> Step:
     assert current.full is not None and pair.full is not None
     return Step(effect=best.effect, before=current.full, after=pair.full, heldout_rms_before=current.heldout_rms,
@@ -158,6 +206,11 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
        two effects that each alone cannot show their worth may do so together. Singles are
        judged before pairs, so among nested alternatives the simplest that clears the rules
        is kept.
+       **Replacement**: when no effect can be added (none earns its keep, or ``max_effects``
+       are kept), each effect kept before the last is tried replaced by every other catalogue
+       effect (:func:`_replace_earlier`); a replacement that earns its keep in the model without
+       the replaced effect and lowers the BIC is kept in its place (a flexible term kept first,
+       memory standing in for an added mass, gives way to the right one).
     4. **The simplest model**: every term kept before a term of the other kind (a measurement
        term before an effect, an effect before a measurement term) is judged again in the
        final model (the model without it against the model with it, same rules) and dropped if
@@ -272,41 +325,61 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
 
                 # 2. the physics, the measurement terms kept in every model
                 remaining = [e for e in pool if e.name not in accepted and e.name not in banned]
-                if not remaining or len(accepted) >= dc.max_effects:
+                if not remaining:
                     break
-                step += 1
-                t_step = time.perf_counter()
-                kept = (*meas_kept, *accepted)
-                ranked = C.rank(remaining, diag_current.evidence)
-                rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
-                                 for e, s in ranked])
-                warm = warm_start(current)
-                scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
-                          for e, _ in ranked}
-                judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
-                                             [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
-                                             step=step, kind="effect", seed=dc.seed + step)
-                judged_all.extend(judged)
-                best = choose(judged)
-                chosen_pairs, chosen_judged = pairs, judged
-                # effects in combination: none alone earns its keep, yet the residual has structure
-                size = 2
-                while (best is None and size <= dc.max_combination and size <= len(remaining)
-                       and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
-                    combos = _combinations(judged, pairs, size, dc.combination_pool)
-                    if not combos:
-                        break
-                    singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
-                    starts = [combination_starts(combo, singles, scaled) for combo in combos]
-                    scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
-                    chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
-                                                               kind="effect", seed=dc.seed + 10 * step + size)
-                    judged_all.extend(chosen_judged)
-                    best = choose(chosen_judged)
-                    size += 1
-                timing["steps_s"].append(time.perf_counter() - t_step)
+                best = None
+                if len(accepted) < dc.max_effects:
+                    step += 1
+                    t_step = time.perf_counter()
+                    kept = (*meas_kept, *accepted)
+                    ranked = C.rank(remaining, diag_current.evidence)
+                    rankings.append([{"effect": e.name, "score": s, "explains": e.explains(diag_current.evidence)}
+                                     for e, s in ranked])
+                    warm = warm_start(current)
+                    scaled = {e.name: scaled_starts(baseline, kept, e.name, warm, data, memory_s=config.models.memory_s)
+                              for e, _ in ranked}
+                    judged, pairs = ctx.evaluate(current, kept, [(e.name,) for e, _ in ranked],
+                                                 [scaled[e.name] for e, _ in ranked], [s for _, s in ranked],
+                                                 step=step, kind="effect", seed=dc.seed + step)
+                    judged_all.extend(judged)
+                    best = choose(judged)
+                    chosen_pairs, chosen_judged = pairs, judged
+                    # effects in combination: none alone earns its keep, yet the residual has structure
+                    size = 2
+                    while (best is None and size <= dc.max_combination and size <= len(remaining)
+                           and len(accepted) + size <= dc.max_effects and off_diagnostics(diag_current.evidence)):
+                        combos = _combinations(judged, pairs, size, dc.combination_pool)
+                        if not combos:
+                            break
+                        singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
+                        starts = [combination_starts(combo, singles, scaled) for combo in combos]
+                        scores = [sum(s for e, s in ranked if e.name in combo) for combo in combos]
+                        chosen_judged, chosen_pairs = ctx.evaluate(current, kept, combos, starts, scores, step=step,
+                                                                   kind="effect", seed=dc.seed + 10 * step + size)
+                        judged_all.extend(chosen_judged)
+                        best = choose(chosen_judged)
+                        size += 1
+                    timing["steps_s"].append(time.perf_counter() - t_step)
                 if best is None:
-                    break
+                    # no effect to add: would one kept earlier do better replaced by another?
+                    others = [e.name for e in remaining]
+                    tried, swap = _replace_earlier(ctx, current, meas_kept, accepted, others, step=step)
+                    judged_all.extend(tried)
+                    if swap is None:
+                        break
+                    gone, cand, pair, reduced = swap
+                    judged_all.append(replace(cand, step=0, effect=gone, terms=(gone,), note=(
+                        f"kept first, replaced by {cand.effect} (BIC {pair.full.bic - current.full.bic:+.1f}): "
+                        "the model with it in its place is better")))
+                    steps = [s for s in steps if gone not in s.names] + [_step(cand, reduced, pair)]
+                    accepted.remove(gone)
+                    accepted.append(cand.effect)
+                    order.remove(gone)
+                    order.append(cand.effect)
+                    banned.add(gone)
+                    current = pair
+                    diag_current = diagnose_pair(current, data, config)
+                    continue
                 pair = chosen_pairs[chosen_judged.index(best)]
                 steps.append(_step(best, current, pair))
                 accepted.extend(best.names)
