@@ -5,7 +5,7 @@ import pytest
 
 from pendtrack.errors import TrackingError
 from pendtrack.track.colour import MarkerColour, parse_marker_colour, rgb_to_ycbcr
-from pendtrack.track.detect import find_marker, level_step, marker_in_roi, median_of
+from pendtrack.track.detect import find_marker, level_step, marker_in_roi, median_of, percentile_of
 from pendtrack.track.match import match_template, quadratic_peak, weighted_centroid
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
 from pendtrack.track.tracker import TrackParams, track_frames
@@ -331,6 +331,15 @@ def test_median_of_is_numpys_median():
         for a in (rng.normal(size=n).astype(np.float32), rng.integers(0, 4, n).astype(np.float32),
                   rng.normal(size=(n, 3))):
             assert median_of(a) == float(np.median(a))
+
+
+def test_percentile_of_is_numpys_percentile():
+    rng = np.random.default_rng(0)
+    for n in (*range(1, 40), 88, 89, 200, 201, 1000, 4321):
+        for a in (rng.normal(size=n).astype(np.float32), rng.integers(0, 4, n).astype(np.float32),
+                  rng.normal(size=(n, 3))):
+            for q in (0.0, 0.5, 50.0, 90.0, 99.0, 99.5, 100.0):
+                assert percentile_of(a, q) == float(np.percentile(a, q)), (n, a.dtype, q)
 
 
 def test_level_step_keeps_every_pixel_of_small_frames_and_20000_of_large_ones():

@@ -31,6 +31,8 @@ NEIGHBOUR_PERCENTILE = 90.0  # the neighbour's level: this percentile of its fea
 FLOOR_SHARE = 0.15  # the floor level sits this share of the way from the neighbour's level to the disc's
 LEVEL_SAMPLES = 20_000  # the background and noise levels are medians of at least this many pixels (level_step)
 
+_BOX5 = np.ones((5, 5), np.uint8)  # _refine's dilation (read-only)
+
 
 @dataclass(frozen=True)
 class Detection:
@@ -212,7 +214,7 @@ def _disc(feature: np.ndarray, pixels: np.ndarray, centre: tuple[int, int], radi
     neighbour = feature[pixels & ~inside & (d2 <= reach ** 2)]
     if neighbour.size == 0:
         return None
-    level = float(np.percentile(neighbour, NEIGHBOUR_PERCENTILE))
+    level = percentile_of(neighbour, NEIGHBOUR_PERCENTILE)
     if top - level < MIN_CONTRAST:
         return None
     floor_level = level + FLOOR_SHARE * (top - level)
@@ -338,23 +340,49 @@ def median_of(a: np.ndarray) -> float:
     return float(part[k - 1:k + 1].mean() if n % 2 == 0 else part[k:k + 1].mean())
 
 
+def percentile_of(a: np.ndarray, q: float) -> float:
+    """``np.percentile(a, q)`` (its default, linear method) of a non-empty float array without NaNs -- the
+    same value, interpolated as NumPy does (in the array's dtype) -- without its generic machinery, which
+    costs ~0.1 ms a call, most of :func:`_refine`'s time on the small windows of a search frame's blobs.
+
+    Parameters
+    ----------
+    a : ndarray
+        Values (any shape; float).
+    q : float
+        Percentile, in [0, 100].
+    """
+    flat = a.ravel()
+    n = flat.size
+    virtual = (n - 1) * (q / 100)
+    lo = math.floor(virtual)
+    if virtual >= n - 1:
+        return float(flat.max())
+    part = np.partition(flat, (lo, lo + 1))
+    below, above = part[lo], part[lo + 1]
+    gamma = virtual - lo
+    diff = above - below
+    return float(above - diff * (1 - gamma) if gamma >= 0.5 else below + diff * gamma)
+
+
 def _refine(f: np.ndarray, x0: int, y0: int, colour: MarkerColour) -> Detection | None:
     """Centroid of the brightest blob of a feature window; ``(x0, y0)`` its frame offset."""
     bg = median_of(np.concatenate([f[0], f[-1], f[:, 0], f[:, -1]]))
-    peak = float(np.percentile(f, 99.5))
+    peak = percentile_of(f, 99.5)
     if peak - bg <= 0:
         return None
     thr = bg + 0.5 * (peak - bg)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats((f > thr).astype(np.uint8), connectivity=8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((f > thr).view(np.uint8), connectivity=8)
     if n < 2:
         return None
-    # each blob's mass above thr, in one pass (not a mask of the window per blob)
-    k = 1 + int(np.argmax(np.bincount(labels.ravel(), weights=(f - np.float32(thr)).ravel(), minlength=n)[1:]))
+    k = 1
+    if n > 2:  # each blob's mass above thr, in one pass (not a mask of the window per blob)
+        k += int(np.argmax(np.bincount(labels.ravel(), weights=(f - np.float32(thr)).ravel(), minlength=n)[1:]))
     area = float(stats[k, cv2.CC_STAT_AREA])
     radius = float(np.sqrt(area / np.pi))
     # weights: contrast over the background inside the blob grown by 2 px (soft edges count)
     blob = labels == k
-    grown = cv2.dilate(blob.view(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    grown = cv2.dilate(blob.view(np.uint8), _BOX5).view(bool)
     wgt = np.where(grown, np.clip(f - bg, 0, None), 0.0)
     total = float(wgt.sum())
     cx = float(wgt.sum(axis=0) @ np.arange(f.shape[1]) / total)
