@@ -31,6 +31,7 @@ NEIGHBOUR_PERCENTILE = 90.0  # the neighbour's level: this percentile of its fea
 FLOOR_SHARE = 0.15  # the floor level sits this share of the way from the neighbour's level to the disc's
 LEVEL_SAMPLES = 20_000  # the background and noise levels are medians of at least this many pixels (level_step)
 
+_BOX3 = np.ones((3, 3), np.uint8)  # marker_candidates' masking (read-only)
 _BOX5 = np.ones((5, 5), np.uint8)  # _refine's dilation (read-only)
 
 
@@ -115,18 +116,30 @@ def _is_compact(w: int, h: int, area: float) -> bool:
     return max(w, h) <= 3 * min(w, h) and area >= 0.4 * w * h
 
 
-def _compact_blobs(half: np.ndarray, thr: float) -> list[_Blob]:
-    """The compact blobs of ``half > thr`` (see :func:`find_marker`), and the discs split off the others
-    (:func:`_touching_discs`)."""
-    mask = (half > thr).astype(np.uint8)
-    hh, hw = half.shape
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+def _above(half: np.ndarray, thr: float) -> tuple[np.ndarray, tuple[slice, slice] | None]:
+    """``half > thr`` (uint8, a view of the bool mask) and the box (rows, columns) holding its pixels
+    (None when there are none)."""
+    mask = (half > thr).view(np.uint8)
+    rows = np.flatnonzero(mask.any(axis=1))
     if rows.size == 0:
+        return mask, None
+    r0, r1 = int(rows[0]), int(rows[-1]) + 1
+    cols = np.flatnonzero(mask[r0:r1].any(axis=0))
+    return mask, np.s_[r0:r1, int(cols[0]):int(cols[-1]) + 1]
+
+
+def _compact_blobs(half: np.ndarray, thr: float, *,
+                   above: tuple[np.ndarray, tuple[slice, slice] | None] | None = None) -> list[_Blob]:
+    """The compact blobs of ``half > thr`` (see :func:`find_marker`), and the discs split off the others
+    (:func:`_touching_discs`); ``above``: :func:`_above` of the same, if the caller has it."""
+    mask, box = _above(half, thr) if above is None else above
+    hh, hw = half.shape
+    if box is None:
         return []
     # label only the box holding every pixel above thr (often a few blobs in a corner of the frame: 4 ms saved
     # per level at 1080p); the components, their order and their stats are those of the whole frame
-    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask[r0:r1, c0:c1], connectivity=8)
+    r0, c0 = box[0].start, box[1].start
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask[box], connectivity=8)
     stats[:, 0] += c0
     stats[:, 1] += r0
     blobs = []
@@ -306,11 +319,14 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
         if peak - bg < floor:
             break
         thr = bg + 0.5 * (peak - bg)
-        for blob in _compact_blobs(work, thr):
+        mask, above = _above(work, thr)
+        for blob in _compact_blobs(work, thr, above=(mask, above)):
             bx, by, bw, bh = (int(a) for a in blob.stat[:4])
             if colour.uses_chroma:
                 box = np.s_[by:by + bh, bx:bx + bw]
-                du, dv = float(u[box][blob.pixels].mean()) - du0, float(v[box][blob.pixels].mean()) - dv0
+                bu, bv = u[box][blob.pixels], v[box][blob.pixels]
+                # their means (exact integer sums: np.mean's values without its overhead)
+                du, dv = int(bu.sum()) / bu.size - du0, int(bv.sum()) / bv.size - dv0
                 norm = np.hypot(du, dv) * np.hypot(colour.wu, colour.wv)
                 if norm <= 0 or (du * colour.wu + dv * colour.wv) / norm < cos_min:
                     continue
@@ -323,7 +339,10 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
             if any(np.hypot(det.x - o.x, det.y - o.y) < max(det.radius, o.radius) for o in out):
                 continue
             out.append(det)
-        work[cv2.dilate((work > thr).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)] = bg
+        if above is not None:  # mask the pixels above thr and their neighbours (only around them: the same)
+            rows, cols = above
+            near = np.s_[max(rows.start - 1, 0):rows.stop + 1, max(cols.start - 1, 0):cols.stop + 1]
+            work[near][cv2.dilate(mask[near], _BOX3).view(bool)] = bg
     return sorted(out, key=lambda d: -d.radius)
 
 
