@@ -68,7 +68,9 @@ class Detection:
 def _feature_levels(y: np.ndarray, u: np.ndarray, v: np.ndarray,
                     colour: MarkerColour) -> tuple[np.ndarray, float, float]:
     """Blurred half-resolution feature, its background level and the level a marker must reach."""
-    half = cv2.GaussianBlur(RawSampler(colour, width=1, height=1).whole_half(y, u, v), (3, 3), 0)
+    feature = RawSampler(colour, width=1, height=1).whole_half(y, u, v)
+    # blurred in place: a 2 MB temporary less per search at 1080p, and one less round of page faults
+    half = cv2.GaussianBlur(feature, (3, 3), 0, dst=feature)
     s = level_step(half.size)
     bg = float(np.median(half[::s, ::s]))
     # noise from neighbour differences, blind to smooth lighting gradients (those of every s-th pixel)
@@ -116,10 +118,11 @@ def _is_compact(w: int, h: int, area: float) -> bool:
     return max(w, h) <= 3 * min(w, h) and area >= 0.4 * w * h
 
 
-def _above(half: np.ndarray, thr: float) -> tuple[np.ndarray, tuple[slice, slice] | None]:
-    """``half > thr`` (uint8, a view of the bool mask) and the box (rows, columns) holding its pixels
-    (None when there are none)."""
-    mask = (half > thr).view(np.uint8)
+def _above(half: np.ndarray, thr: float, *,
+           out: np.ndarray | None = None) -> tuple[np.ndarray, tuple[slice, slice] | None]:
+    """``half > thr`` (uint8, a view of the bool mask, written into the bool array ``out`` if given) and
+    the box (rows, columns) holding its pixels (None when there are none)."""
+    mask = np.greater(half, thr, out=out).view(np.uint8)
     rows = np.flatnonzero(mask.any(axis=1))
     if rows.size == 0:
         return mask, None
@@ -307,8 +310,8 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
         Refined at full resolution, without duplicates (centres closer than a radius),
         largest radius first; empty when nothing stands out.
     """
-    half, bg, floor = _feature_levels(y, u, v, colour)
-    work = half.copy()
+    work, bg, floor = _feature_levels(y, u, v, colour)  # masked level by level (a new array: no copy)
+    above_thr = np.empty(work.shape, bool)  # each level's mask, in one buffer (fewer page faults at 1080p)
     out: list[Detection] = []
     du0 = dv0 = 0.0
     if colour.uses_chroma:
@@ -319,7 +322,7 @@ def marker_candidates(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: Marke
         if peak - bg < floor:
             break
         thr = bg + 0.5 * (peak - bg)
-        mask, above = _above(work, thr)
+        mask, above = _above(work, thr, out=above_thr)
         for blob in _compact_blobs(work, thr, above=(mask, above)):
             bx, by, bw, bh = (int(a) for a in blob.stat[:4])
             if colour.uses_chroma:
