@@ -704,10 +704,18 @@ class _Acquirer:
             window = [fr]
             chosen: tuple | None = None
             if found:
+                t_s = fr.t  # type: ignore[attr-defined]
                 while (self.pending or not self.ended) and window[-1].t - fr.t < self.params.acquire_window_s:
                     nxt = self._next()
                     if nxt is not None:
                         window.append(nxt)
+                        if not self.roi and self._sample_due(nxt, t_s):
+                            # searched as it comes, while the decoder goes on (the choice below reads the cache):
+                            # the consumer then lags the decoder by the searches less the window's decoding, not
+                            # by all of them -- a lag a bounded decode-ahead queue turns into a stalled decoder
+                            # or into more frame buffers (page faults)
+                            self.candidates(nxt)
+                            t_s = nxt.t
                 if not self.pending and not self.ended:  # is there a frame after the window?
                     nxt = self._next()
                     if nxt is not None:
@@ -751,6 +759,11 @@ class _Acquirer:
         except TrackingError:
             return None
 
+    def _sample_due(self, fr: object, t_last: float) -> bool:
+        """Is ``fr`` a frame whose candidates the choice follows (``acquire_step_s`` after the last one at
+        ``t_last`` [s])?"""
+        return fr.t - t_last >= self.params.acquire_step_s - 1e-9  # type: ignore[attr-defined]
+
     def _choose(self, a: object, found: list, window: list) -> tuple[object | None, str]:
         """The marker among the search frame's candidates, and how it was chosen (None: undecided)."""
         if self.roi:
@@ -758,7 +771,7 @@ class _Acquirer:
         samples = []
         t_s = a.t  # type: ignore[attr-defined]
         for fr in window[1:]:
-            if fr.t - t_s >= self.params.acquire_step_s - 1e-9:
+            if self._sample_due(fr, t_s):
                 samples.append(self.candidates(fr))
                 t_s = fr.t
         diagonal = float(np.hypot(self.sampler.height, self.sampler.width))
