@@ -28,10 +28,12 @@ MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a 
 DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.py measures both)
 DECODE_PREFETCH = 8  # decode at least this many frames ahead in a background thread (0: same thread)
 # ... or as many as fit this many MiB (86 frames at 1080p, 194 at 720p, 21 at 4K), held only while the consumer
-# lags: the decoder keeps going through the acquisition, whose choice of the marker costs ~0.2 s on one frame at
-# 1080p (10 whole-frame searches of the window); 8 frames ahead, that stopped the decoder for 0.2-0.3 s of a
-# 10-s clip's ~1.2 s of decoding. Per-frame times of the serial stage in a two-core pipeline model
-# (no contention): track/decode 0.83 with 8 frames, 0.89 with 64, 0.92 with 86, 0.96 with 110 (1080p/60).
+# lags: the decoder keeps going through the acquisition, whose choice of the marker costs ~0.1 s at 1080p (11
+# whole-frame searches, each searched as its frame arrives: the consumer lags the decoder by the searches less
+# the motion window's decoding). Per-frame times of the serial stage in a two-core pipeline model (no
+# contention, 1080p/60, 2026-11-25): track/decode 0.93 with 8 frames, 0.94 with 16, 0.96 with 32 or more (before
+# the searches overlapped the window: 0.89 with 8, 0.96 with 86). Frames queued beyond the lag cost nothing; the
+# lag's frames do (fresh FFmpeg frame buffers: ~20k page faults at 1080p, mostly the motion window's 31 frames).
 DECODE_PREFETCH_MB = 256.0
 
 
