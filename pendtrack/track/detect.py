@@ -373,6 +373,11 @@ def percentile_of(a: np.ndarray, q: float) -> float:
         Values (any shape; float).
     q : float
         Percentile, in [0, 100].
+
+    Returns
+    -------
+    float
+        The percentile, in the units of ``a``.
     """
     flat = a.ravel()
     n = flat.size
