@@ -221,13 +221,42 @@ def _fold_grad(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, .
 
 
 _GRAD_SMOOTH, _GRAD_FRICTION, _GRAD_FOLDED, GRAD_SLOTS_SMOOTH, GRAD_SLOTS_FRICTION = _fold_grad(tuple(T.TERMS.values()))
-# where slot i's derivative is: GRAD_KIND[i] = 1 in dcs, 2 in dcf (0: no formula), at GRAD_POS[i]
-GRAD_KIND = np.zeros(T.N_COEFFS, dtype=np.int64)
-GRAD_POS = np.zeros(T.N_COEFFS, dtype=np.int64)
-for _pos, _slot in enumerate(GRAD_SLOTS_SMOOTH):
-    GRAD_KIND[_slot], GRAD_POS[_slot] = 1, _pos
-for _pos, _slot in enumerate(GRAD_SLOTS_FRICTION):
-    GRAD_KIND[_slot], GRAD_POS[_slot] = 2, _pos
+
+
+def _scatter_seed(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+    pass
+
+
+def _scatter_smooth(rest, pos, slot):  # noqa: ANN001, ANN202
+    def scatter(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+        rest(dcs, dcf, s, out)
+        out[slot] = dcs[pos]
+    return scatter
+
+
+def _scatter_friction(rest, pos, slot):  # noqa: ANN001, ANN202
+    def scatter(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+        rest(dcs, dcf, s, out)
+        out[slot] = -s * dcf[pos]
+    return scatter
+
+
+def _fold_scatter() -> tuple[object, tuple[object, ...]]:
+    """``(scatter, every function made)``: ``scatter(dcs, dcf, s, out)`` writes each slot's
+    d alpha/d c into ``out[slot]`` (a friction slot's as ``-s dm/dc``), every tuple position a
+    constant (a tuple indexed at run time cost ~30 ns a stage, measured)."""
+    made: list[object] = [_scatter_seed]
+    scatter = _scatter_seed
+    for pos, slot in enumerate(GRAD_SLOTS_SMOOTH):
+        scatter = _scatter_smooth(scatter, pos, slot)
+        made.append(scatter)
+    for pos, slot in enumerate(GRAD_SLOTS_FRICTION):
+        scatter = _scatter_friction(scatter, pos, slot)
+        made.append(scatter)
+    return scatter, tuple(made)
+
+
+_SCATTER, _SCATTER_FOLDED = _fold_scatter()
 
 
 def grad_smooth(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
@@ -454,13 +483,14 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
             out_alpha[i + 1] = accel_terms(theta, st, omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
 
 
-def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
     """Partials of the memory-free acceleration at one point with the sgn terms at direction s.
 
     ``st, ct = sin(theta), cos(theta)``; ``kn``: 1 at the differentiated slots (:func:`grad_smooth`). Returns
     ``(d alpha/d theta, d alpha/d omega)``; writes ``g[j] = sum_u (d alpha/d c_u) (d c_u/d p_j)``
     over the slots ``slot_index`` (``dcoeffs[u, j]``, from
-    :meth:`~pendtrack.models.declare.Layout.pack_jacobian`). At ``omega == 0`` exactly the
+    :meth:`~pendtrack.models.declare.Layout.pack_jacobian`); ``dca``: scratch of length N_COEFFS,
+    0 at the slots without a formula. At ``omega == 0`` exactly the
     friction's omega-derivative (infinite for a sub-linear friction) is taken as 0: the
     sensitivity kernel evaluates there only at the start of a segment pinned to omega = 0 by
     an event, where the omega-sensitivity is 0 by construction (:func:`rk_sens_kernel_py`).
@@ -469,35 +499,29 @@ def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g):  # no
     dmw, dcf = grad_friction(abs(omega), k, kn)
     if omega != 0.0:
         a_om = a_om - dmw
+    _SCATTER(dcs, dcf, s, dca)
     for j in range(g.shape[0]):
         g[j] = 0.0
     for u in range(slot_index.shape[0]):
-        i = slot_index[u]
-        kind = GRAD_KIND[i]
-        if kind == 1:
-            v = dcs[GRAD_POS[i]]
-        elif kind == 2:
-            v = -s * dcf[GRAD_POS[i]]
-        else:
-            continue
+        v = dca[slot_index[u]]
         for j in range(g.shape[0]):
             g[j] += v * dcoeffs[u, j]
     return a_th, a_om
 
 
 def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_sth, out_som,
-                  kn, slot_index, dcoeffs, g, w):  # noqa: ANN001, ANN201
+                  kn, slot_index, dcoeffs, g, w, dca):  # noqa: ANN001, ANN201
     """:func:`rk4_step` (same arithmetic, same rotated sines) and the derivative of its result by the parameters.
 
     ``sth, som`` [rad/p, rad/s/p]: d theta/d p_j, d omega/d p_j at the start; the step's
     derivatives (the RK4 stages differentiated, i.e. RK4 on the variational equations, exact
     for the discrete map at fixed dt) go to ``out_sth, out_som`` (may alias ``sth, som``).
-    ``w``: scratch, shape ``(4, P)``. Returns ``(theta, omega, sin theta, cos theta)`` after the step.
+    ``w``: scratch, shape ``(4, P)``; ``dca``: :func:`accel_grad`'s. Returns ``(theta, omega, sin theta, cos theta)`` after the step.
     """
     n_p = sth.shape[0]
     k1t = omega
     k1w = accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
-    a_th, a_om = accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):  # w[0]: dk1t = som, w[1]: dk1w; w[2], w[3]: the next stage's state derivatives
         w[0, j] = a_th * sth[j] + a_om * som[j] + g[j]  # dk1w
     th2 = theta + 0.5 * dt * k1t
@@ -507,7 +531,7 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
     k2t = w2
     s2, c2 = sin_cos_at(th2, theta, st, ct)
     k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
-    a_th, a_om = accel_grad(th2, s2, c2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th2, s2, c2, w2, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th2 = sth[j] + 0.5 * dt * som[j]
         d_w2 = som[j] + 0.5 * dt * w[0, j]
@@ -518,7 +542,7 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
     k3t = w3
     s3, c3 = sin_cos_at(th3, theta, st, ct)
     k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
-    a_th, a_om = accel_grad(th3, s3, c3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th3, s3, c3, w3, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th3 = sth[j] + 0.5 * dt * w[1, j]
         d_w3 = som[j] + 0.5 * dt * w[2, j]
@@ -533,7 +557,7 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
     k4t = w4
     s4, c4 = sin_cos_at(th4, theta, st, ct)
     k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
-    a_th, a_om = accel_grad(th4, s4, c4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th4, s4, c4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th4 = sth[j] + dt * w[2, j]
         d_w4 = som[j] + dt * w[3, j]
@@ -547,7 +571,7 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
     return th_new, omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0, s_new, c_new
 
 
-def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
     """``(d theta, d omega)`` of :func:`rk4_step`'s result by its step length ``dt``, the start state fixed.
 
     The stages differentiated by dt (the right-hand side's explicit time-dependence, the
@@ -569,7 +593,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
     d_th2 = 0.5 * k1t
     d_w2 = 0.5 * k1w
-    a_th, a_om = accel_grad(th2, s2, math.cos(th2), w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th2, s2, math.cos(th2), w2, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k2t = d_w2
     d_k2w = a_th * d_th2 + a_om * d_w2
     th3 = theta + 0.5 * dt * k2t
@@ -579,7 +603,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
     d_th3 = 0.5 * k2t + 0.5 * dt * d_k2t
     d_w3 = 0.5 * k2w + 0.5 * dt * d_k2w
-    a_th, a_om = accel_grad(th3, s3, math.cos(th3), w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th3, s3, math.cos(th3), w3, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k3t = d_w3
     d_k3w = a_th * d_th3 + a_om * d_w3
     th4 = theta + dt * k3t
@@ -589,7 +613,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
     d_th4 = k3t + dt * d_k3t
     d_w4 = k3w + dt * d_k3w
-    a_th, a_om = accel_grad(th4, s4, math.cos(th4), w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th4, s4, math.cos(th4), w4, t + dt, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k4t = d_w4
     d_k4w = a_th * d_th4 + a_om * d_w4
     return ((k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0 + dt * (2.0 * d_k2t + 2.0 * d_k3t + d_k4t) / 6.0,
@@ -648,6 +672,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     kn = unpack(need)
     g = np.zeros(n_p)
     w = np.zeros((4, n_p))
+    dca = np.zeros(c.shape[0])  # d alpha/d c by slot (accel_grad's scratch)
     sth = dtheta0.copy()
     som = domega0.copy()
     delta = np.zeros(n_p)  # d(start time of the current segment)/dp, when it starts pinned at an event
@@ -684,11 +709,11 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                         break  # still stuck: theta, omega = 0 unchanged over this sub-step
                 th1, w1, st1, ct1 = rk4_sens_step(theta, st, ct, omega, t, remaining, s, kc, forcing, t_start, h,
                                                   sth, som, out_dtheta[i + 1], out_domega[i + 1], kn, slot_index,
-                                                  dcoeffs, g, w)
+                                                  dcoeffs, g, w, dca)
                 if s * w1 >= 0.0:
                     if shifted:  # this segment started at an event: its start time (and length) move with p
                         e_th, e_om = rk4_length_derivative(theta, omega, t, remaining, s, kc, forcing, t_start, h,
-                                                           kn, slot_index, dcoeffs, g)
+                                                           kn, slot_index, dcoeffs, g, dca)
                     theta = th1
                     omega = w1
                     st = st1
@@ -735,9 +760,9 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                 # that plus the segment's start shift (the step's start time does not enter an
                 # autonomous step)
                 rk4_sens_step(theta, st, ct, omega, t, tc, s, kc, forcing, t_start, h, sth, som, sth, som,
-                              kn, slot_index, dcoeffs, g, w)
+                              kn, slot_index, dcoeffs, g, w, dca)
                 e_th, e_om = rk4_length_derivative(theta, omega, t, tc, s, kc, forcing, t_start, h,
-                                                   kn, slot_index, dcoeffs, g)
+                                                   kn, slot_index, dcoeffs, g, dca)
                 for j in range(n_p):
                     dtau = -som[j] / e_om if e_om != 0.0 else 0.0
                     sth[j] += e_th * dtau
@@ -756,7 +781,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
             if shifted:  # an event at the sub-step's very end (or 16 of them): the pinned state's shift
                 if s != 0.0:
                     e_th, e_om = rk4_length_derivative(theta, omega, t, max(t_end - t, 0.0), s, kc, forcing,
-                                                       t_start, h, kn, slot_index, dcoeffs, g)
+                                                       t_start, h, kn, slot_index, dcoeffs, g, dca)
                     for j in range(n_p):
                         sth[j] -= e_th * delta[j]
                         som[j] -= e_om * delta[j]
@@ -1109,7 +1134,7 @@ def _register() -> None:
     # inlining of the nested folds would cost minutes of compilation)
     formulas = tuple(t.fn for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
     derivatives = tuple(t.dfn for t in (T.BASE, *T.TERMS.values()) if t.dfn is not None)
-    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED):
+    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED, *_SCATTER_FOLDED):
         register_jitable(fn)
     for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
                memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, sin_cos_at, grad_smooth, grad_friction):
