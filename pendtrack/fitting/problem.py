@@ -46,7 +46,7 @@ def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, 
     mem = memory_steps_for(memory_s, h / k, full_history=full_history) if model.has_memory else -1
     theta = np.empty(n)
     omega = np.empty(n)
-    alpha = np.empty(n)
+    alpha = np.empty(n if model.has_memory else 0)  # not wanted: the RK4 kernel then skips it
     with np.errstate(all="ignore"):
         simulate_packed(coeffs, n - 1, h, float(theta0), float(omega0), mem, theta, omega, alpha, t_start=t_start,
                         substeps=k)

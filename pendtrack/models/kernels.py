@@ -403,7 +403,8 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
     theta0, omega0 : float, initial state [rad], [rad/s]
     substeps : int >= 1, RK4 steps per output step
     forcing : float64 array, length 0 (none) or n_steps + 1 [rad/s^2], added to alpha
-    out_theta, out_omega, out_alpha : float64 arrays of length >= n_steps + 1 (written)
+    out_theta, out_omega, out_alpha : float64 arrays of length >= n_steps + 1 (written); ``out_alpha``
+        of length 0: the acceleration is not wanted (a fit's residuals; one evaluation a sample less)
     """
     c = coeffs
     kc = unpack(c)
@@ -417,8 +418,10 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
         omega = 0.0
     out_theta[0] = theta
     out_omega[0] = omega
-    out_alpha[0] = 0.0 if s == 0.0 else (
-        accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+    want_alpha = out_alpha.shape[0] > 0
+    if want_alpha:
+        out_alpha[0] = 0.0 if s == 0.0 else (
+            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
     for i in range(n_steps):
         for j in range(substeps):
             t = t_start + i * h + j * hs
@@ -477,6 +480,8 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
         out_omega[i + 1] = omega
         st = math.sin(theta)  # the rotations' rounding does not accumulate past a sample
         ct = math.cos(theta)
+        if not want_alpha:
+            continue
         if s == 0.0:
             out_alpha[i + 1] = 0.0
         else:
@@ -637,7 +642,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     n_steps, h, t_start, theta0, omega0, substeps, forcing : as :func:`rk_kernel_py`
     dtheta0, domega0 : float64 arrays (P,), derivatives of the initial state by the parameters
         (a unit vector for the columns of theta0 and omega0, else 0)
-    out_theta, out_omega, out_alpha : float64 arrays (>= n_steps + 1,), as :func:`rk_kernel_py`
+    out_theta, out_omega, out_alpha : float64 arrays (>= n_steps + 1,; ``out_alpha`` may be empty), as :func:`rk_kernel_py`
     out_dtheta, out_domega : float64 arrays (>= n_steps + 1, P) [rad / p_j], [rad/s / p_j]
 
     Notes
@@ -688,8 +693,10 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
             som[j] = 0.0
     out_theta[0] = theta
     out_omega[0] = omega
-    out_alpha[0] = 0.0 if s == 0.0 else (
-        accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+    want_alpha = out_alpha.shape[0] > 0
+    if want_alpha:
+        out_alpha[0] = 0.0 if s == 0.0 else (
+            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
     for j in range(n_p):
         out_dtheta[0, j] = sth[j]
         out_domega[0, j] = som[j]
@@ -796,6 +803,8 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
         for j in range(n_p):
             out_dtheta[i + 1, j] = sth[j]
             out_domega[i + 1, j] = som[j]
+        if not want_alpha:
+            continue
         if s == 0.0:
             out_alpha[i + 1] = 0.0
         else:
