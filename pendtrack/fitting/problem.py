@@ -46,7 +46,7 @@ def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, 
     mem = memory_steps_for(memory_s, h / k, full_history=full_history) if model.has_memory else -1
     theta = np.empty(n)
     omega = np.empty(n)
-    alpha = np.empty(n)
+    alpha = np.empty(n if model.has_memory else 0)  # not wanted: the RK4 kernel then skips it
     with np.errstate(all="ignore"):
         simulate_packed(coeffs, n - 1, h, float(theta0), float(omega0), mem, theta, omega, alpha, t_start=t_start,
                         substeps=k)
@@ -217,7 +217,8 @@ class FitProblem:
     def model_at_data(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Observed model angle [rad] and angular velocity [rad/s] at the data samples."""
         theta, omega = self.simulate(x)
-        return theta[self.index], omega[self.index]
+        rows = self.rows
+        return theta[rows], omega[rows]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Residual vector (sum of squares = cost); a large constant where the model fails."""
@@ -228,6 +229,14 @@ class FitProblem:
             return np.full(size, PENALTY / math.sqrt(self.n))
         return residual_vector(theta_m, omega_m, self.theta, self.omega, cost=self.cost,
                                omega_scale=self.omega_scale, a_theta_exp=self.a_theta_exp)
+
+    @cached_property
+    def rows(self) -> slice | np.ndarray:
+        """:attr:`index` as a slice when it is a contiguous run (the usual case: views, no copies), else itself."""
+        idx = self.index
+        if idx.size and np.all(np.diff(idx) == 1):
+            return slice(int(idx[0]), int(idx[-1]) + 1)
+        return idx
 
     @cached_property
     def a_theta_exp(self) -> np.ndarray:
@@ -414,14 +423,14 @@ class FitProblem:
             theta, omega, dth, dom = self.simulate_sensitivities(x)
         except (PendtrackError, ValueError, ArithmeticError):
             return None
-        idx = self.index
+        idx = self.rows
         n = self.n
         norm = 1.0 / math.sqrt(n)
         p = dth.shape[1]
         if self.cost == "xi2":
             jac = np.empty((2 * n, p), order="F")
-            jac[:n] = (0.5 * norm) * np.cos(0.5 * theta[idx])[:, None] * dth[idx]
-            jac[n:] = (self.omega_scale * norm) * dom[idx]
+            np.multiply(((0.5 * norm) * np.cos(0.5 * theta[idx]))[:, None], dth[idx], out=jac[:n])
+            np.multiply(self.omega_scale * norm, dom[idx], out=jac[n:])
             return jac
         if self.cost == "theta":
             return np.asfortranarray(norm * dth[idx])

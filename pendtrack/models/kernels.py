@@ -39,6 +39,10 @@ sub-step where omega changes sign the crossing is located (regula falsi on the R
 length), the step is finished from there with the new direction of motion. At omega = 0
 the direction is the one the forces push towards; if static friction exceeds them
 (``accel(+1) <= 0 <= accel(-1)``) the pendulum sticks (omega = alpha = 0) until they do.
+The stages' sin(theta) are rotations of the sub-step's start value (:func:`sin_cos_at`), which
+is itself rotated from the sub-step before and taken from libm at every output sample and
+after every event: one libm sin/cos pair per sample instead of a sin per stage (the sensitivity
+kernel, which needs cos too, the same), a few ulp from libm's values.
 
 Compilation (:func:`_compile`, ~8 s of CPU): ``error_model="numpy"`` and ``fastmath`` limited to
 ``contract``/``arcp`` (fused multiply-add, reciprocal division) for the kernels, full
@@ -217,13 +221,42 @@ def _fold_grad(terms: tuple[Term, ...]) -> tuple[object, object, tuple[object, .
 
 
 _GRAD_SMOOTH, _GRAD_FRICTION, _GRAD_FOLDED, GRAD_SLOTS_SMOOTH, GRAD_SLOTS_FRICTION = _fold_grad(tuple(T.TERMS.values()))
-# where slot i's derivative is: GRAD_KIND[i] = 1 in dcs, 2 in dcf (0: no formula), at GRAD_POS[i]
-GRAD_KIND = np.zeros(T.N_COEFFS, dtype=np.int64)
-GRAD_POS = np.zeros(T.N_COEFFS, dtype=np.int64)
-for _pos, _slot in enumerate(GRAD_SLOTS_SMOOTH):
-    GRAD_KIND[_slot], GRAD_POS[_slot] = 1, _pos
-for _pos, _slot in enumerate(GRAD_SLOTS_FRICTION):
-    GRAD_KIND[_slot], GRAD_POS[_slot] = 2, _pos
+
+
+def _scatter_seed(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+    pass
+
+
+def _scatter_smooth(rest, pos, slot):  # noqa: ANN001, ANN202
+    def scatter(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+        rest(dcs, dcf, s, out)
+        out[slot] = dcs[pos]
+    return scatter
+
+
+def _scatter_friction(rest, pos, slot):  # noqa: ANN001, ANN202
+    def scatter(dcs, dcf, s, out):  # noqa: ANN001, ANN202
+        rest(dcs, dcf, s, out)
+        out[slot] = -s * dcf[pos]
+    return scatter
+
+
+def _fold_scatter() -> tuple[object, tuple[object, ...]]:
+    """``(scatter, every function made)``: ``scatter(dcs, dcf, s, out)`` writes each slot's
+    d alpha/d c into ``out[slot]`` (a friction slot's as ``-s dm/dc``), every tuple position a
+    constant (a tuple indexed at run time cost ~30 ns a stage, measured)."""
+    made: list[object] = [_scatter_seed]
+    scatter = _scatter_seed
+    for pos, slot in enumerate(GRAD_SLOTS_SMOOTH):
+        scatter = _scatter_smooth(scatter, pos, slot)
+        made.append(scatter)
+    for pos, slot in enumerate(GRAD_SLOTS_FRICTION):
+        scatter = _scatter_friction(scatter, pos, slot)
+        made.append(scatter)
+    return scatter, tuple(made)
+
+
+_SCATTER, _SCATTER_FOLDED = _fold_scatter()
 
 
 def grad_smooth(theta, sin_theta, cos_theta, omega, t, k, kn):  # noqa: ANN001, ANN201 (numba-compiled)
@@ -318,29 +351,44 @@ def direction(theta, omega, t, c, f):  # noqa: ANN001, ANN201
     return 0.0
 
 
-def rk4_step(theta, omega, t, dt, s, k, forcing, t_start, h):  # noqa: ANN001, ANN201
-    """One RK4 step of length dt with the sgn terms frozen at direction s; returns (theta, omega).
+def sin_cos_at(x, x0, s0, c0):  # noqa: ANN001, ANN201
+    """``(sin x, cos x)`` from ``s0 = sin x0``, ``c0 = cos x0``: the rotation :func:`sin_cos_after` by
+    ``x - x0`` when that is at most :data:`SINCOS_STEP_MAX`, else libm."""
+    d = x - x0
+    if abs(d) <= SINCOS_STEP_MAX:
+        return sin_cos_after(s0, c0, d)
+    return math.sin(x), math.cos(x)
 
-    ``k`` from :func:`unpack`.
+
+def rk4_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h):  # noqa: ANN001, ANN201
+    """One RK4 step of length dt with the sgn terms frozen at direction s; returns
+    ``(theta, omega, sin theta, cos theta)`` after it.
+
+    ``st, ct``: sin and cos of ``theta``; the stages' sines (and the result's) are rotations of
+    them (:func:`sin_cos_at`, within a few ulp of libm's). ``k`` from :func:`unpack`.
     """
     k1t = omega
-    k1w = accel_terms(theta, math.sin(theta), omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    k1w = accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
     th2 = theta + 0.5 * dt * k1t
     w2 = omega + 0.5 * dt * k1w
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
     k2t = w2
-    k2w = accel_terms(th2, math.sin(th2), w2, tm, s, k) + fm
+    s2, _ = sin_cos_at(th2, theta, st, ct)
+    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
     th3 = theta + 0.5 * dt * k2t
     w3 = omega + 0.5 * dt * k2w
     k3t = w3
-    k3w = accel_terms(th3, math.sin(th3), w3, tm, s, k) + fm
+    s3, _ = sin_cos_at(th3, theta, st, ct)
+    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
     th4 = theta + dt * k3t
     w4 = omega + dt * k3w
     k4t = w4
-    k4w = accel_terms(th4, math.sin(th4), w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
-    return (theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0,
-            omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0)
+    s4, _ = sin_cos_at(th4, theta, st, ct)
+    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    th_new = theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0
+    s_new, c_new = sin_cos_at(th_new, theta, st, ct)
+    return th_new, omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0, s_new, c_new
 
 
 def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
@@ -355,20 +403,25 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
     theta0, omega0 : float, initial state [rad], [rad/s]
     substeps : int >= 1, RK4 steps per output step
     forcing : float64 array, length 0 (none) or n_steps + 1 [rad/s^2], added to alpha
-    out_theta, out_omega, out_alpha : float64 arrays of length >= n_steps + 1 (written)
+    out_theta, out_omega, out_alpha : float64 arrays of length >= n_steps + 1 (written); ``out_alpha``
+        of length 0: the acceleration is not wanted (a fit's residuals; one evaluation a sample less)
     """
     c = coeffs
     kc = unpack(c)
     hs = h / substeps
     theta = theta0
     omega = omega0
+    st = math.sin(theta)  # sin, cos of theta: rotated through the sub-steps, from libm at every sample
+    ct = math.cos(theta)
     s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
     if s == 0.0:
         omega = 0.0
     out_theta[0] = theta
     out_omega[0] = omega
-    out_alpha[0] = 0.0 if s == 0.0 else (
-        accel_terms(theta, math.sin(theta), omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+    want_alpha = out_alpha.shape[0] > 0
+    if want_alpha:
+        out_alpha[0] = 0.0 if s == 0.0 else (
+            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
     for i in range(n_steps):
         for j in range(substeps):
             t = t_start + i * h + j * hs
@@ -378,10 +431,12 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
                     s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
                     if s == 0.0:
                         break  # still stuck: theta, omega = 0 unchanged over this sub-step
-                th1, w1 = rk4_step(theta, omega, t, remaining, s, kc, forcing, t_start, h)
+                th1, w1, st1, ct1 = rk4_step(theta, st, ct, omega, t, remaining, s, kc, forcing, t_start, h)
                 if s * w1 >= 0.0:
                     theta = th1
                     omega = w1
+                    st = st1
+                    ct = ct1
                     break
                 # omega changes sign inside: locate tau with omega(tau) = 0 (Illinois regula falsi)
                 ta = 0.0
@@ -393,7 +448,7 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
                 side = 0
                 for _it in range(60):
                     tc = (ta * fb - tb * fa) / (fb - fa)
-                    thc, wc = rk4_step(theta, omega, t, tc, s, kc, forcing, t_start, h)
+                    thc, wc, _, _ = rk4_step(theta, st, ct, omega, t, tc, s, kc, forcing, t_start, h)
                     fc = s * wc
                     if fc > 0.0:
                         ta = tc
@@ -412,6 +467,8 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
                     if tb - ta <= 1e-15 * hs or abs(fc) <= 1e-15:
                         break
                 theta = thc
+                st = math.sin(theta)
+                ct = math.cos(theta)
                 omega = 0.0
                 t = t + tc
                 remaining = remaining - tc
@@ -421,58 +478,55 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
         ti = t_start + (i + 1) * h
         out_theta[i + 1] = theta
         out_omega[i + 1] = omega
+        st = math.sin(theta)  # the rotations' rounding does not accumulate past a sample
+        ct = math.cos(theta)
+        if not want_alpha:
+            continue
         if s == 0.0:
             out_alpha[i + 1] = 0.0
         else:
-            out_alpha[i + 1] = accel_terms(theta, math.sin(theta), omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
+            out_alpha[i + 1] = accel_terms(theta, st, omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
 
 
-def accel_grad(theta, st, omega, t, s, k, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
     """Partials of the memory-free acceleration at one point with the sgn terms at direction s.
 
-    ``st = sin(theta)``; ``kn``: 1 at the differentiated slots (:func:`grad_smooth`). Returns
+    ``st, ct = sin(theta), cos(theta)``; ``kn``: 1 at the differentiated slots (:func:`grad_smooth`). Returns
     ``(d alpha/d theta, d alpha/d omega)``; writes ``g[j] = sum_u (d alpha/d c_u) (d c_u/d p_j)``
     over the slots ``slot_index`` (``dcoeffs[u, j]``, from
-    :meth:`~pendtrack.models.declare.Layout.pack_jacobian`). At ``omega == 0`` exactly the
+    :meth:`~pendtrack.models.declare.Layout.pack_jacobian`); ``dca``: scratch of length N_COEFFS,
+    0 at the slots without a formula. At ``omega == 0`` exactly the
     friction's omega-derivative (infinite for a sub-linear friction) is taken as 0: the
     sensitivity kernel evaluates there only at the start of a segment pinned to omega = 0 by
     an event, where the omega-sensitivity is 0 by construction (:func:`rk_sens_kernel_py`).
     """
-    ct = math.cos(theta)
     a_th, a_om, dcs = grad_smooth(theta, st, ct, omega, t, k, kn)
     dmw, dcf = grad_friction(abs(omega), k, kn)
     if omega != 0.0:
         a_om = a_om - dmw
+    _SCATTER(dcs, dcf, s, dca)
     for j in range(g.shape[0]):
         g[j] = 0.0
     for u in range(slot_index.shape[0]):
-        i = slot_index[u]
-        kind = GRAD_KIND[i]
-        if kind == 1:
-            v = dcs[GRAD_POS[i]]
-        elif kind == 2:
-            v = -s * dcf[GRAD_POS[i]]
-        else:
-            continue
+        v = dca[slot_index[u]]
         for j in range(g.shape[0]):
             g[j] += v * dcoeffs[u, j]
     return a_th, a_om
 
 
-def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_sth, out_som,
-                  kn, slot_index, dcoeffs, g, w):  # noqa: ANN001, ANN201
-    """:func:`rk4_step` (same arithmetic) and the derivative of its result by the parameters.
+def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_sth, out_som,
+                  kn, slot_index, dcoeffs, g, w, dca):  # noqa: ANN001, ANN201
+    """:func:`rk4_step` (same arithmetic, same rotated sines) and the derivative of its result by the parameters.
 
     ``sth, som`` [rad/p, rad/s/p]: d theta/d p_j, d omega/d p_j at the start; the step's
     derivatives (the RK4 stages differentiated, i.e. RK4 on the variational equations, exact
     for the discrete map at fixed dt) go to ``out_sth, out_som`` (may alias ``sth, som``).
-    ``w``: scratch, shape ``(4, P)``. Returns ``(theta, omega)`` after the step.
+    ``w``: scratch, shape ``(4, P)``; ``dca``: :func:`accel_grad`'s. Returns ``(theta, omega, sin theta, cos theta)`` after the step.
     """
     n_p = sth.shape[0]
     k1t = omega
-    s1 = math.sin(theta)
-    k1w = accel_terms(theta, s1, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
-    a_th, a_om = accel_grad(theta, s1, omega, t, s, k, kn, slot_index, dcoeffs, g)
+    k1w = accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+    a_th, a_om = accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):  # w[0]: dk1t = som, w[1]: dk1w; w[2], w[3]: the next stage's state derivatives
         w[0, j] = a_th * sth[j] + a_om * som[j] + g[j]  # dk1w
     th2 = theta + 0.5 * dt * k1t
@@ -480,9 +534,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
     k2t = w2
-    s2 = math.sin(th2)
+    s2, c2 = sin_cos_at(th2, theta, st, ct)
     k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
-    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th2, s2, c2, w2, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th2 = sth[j] + 0.5 * dt * som[j]
         d_w2 = som[j] + 0.5 * dt * w[0, j]
@@ -491,9 +545,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     th3 = theta + 0.5 * dt * k2t
     w3 = omega + 0.5 * dt * k2w
     k3t = w3
-    s3 = math.sin(th3)
+    s3, c3 = sin_cos_at(th3, theta, st, ct)
     k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
-    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th3, s3, c3, w3, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th3 = sth[j] + 0.5 * dt * w[1, j]
         d_w3 = som[j] + 0.5 * dt * w[2, j]
@@ -506,9 +560,9 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
     th4 = theta + dt * k3t
     w4 = omega + dt * k3w
     k4t = w4
-    s4 = math.sin(th4)
+    s4, c4 = sin_cos_at(th4, theta, st, ct)
     k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
-    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th4, s4, c4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th4 = sth[j] + dt * w[2, j]
         d_w4 = som[j] + dt * w[3, j]
@@ -517,11 +571,12 @@ def rk4_sens_step(theta, omega, t, dt, s, k, forcing, t_start, h, sth, som, out_
         new_om = som[j] + dt * (w[0, j] + dk4w) / 6.0
         out_sth[j] = new_th
         out_som[j] = new_om
-    return (theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0,
-            omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0)
+    th_new = theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0
+    s_new, c_new = sin_cos_at(th_new, theta, st, ct)
+    return th_new, omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0, s_new, c_new
 
 
-def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g):  # noqa: ANN001, ANN201
+def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
     """``(d theta, d omega)`` of :func:`rk4_step`'s result by its step length ``dt``, the start state fixed.
 
     The stages differentiated by dt (the right-hand side's explicit time-dependence, the
@@ -543,7 +598,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
     d_th2 = 0.5 * k1t
     d_w2 = 0.5 * k1w
-    a_th, a_om = accel_grad(th2, s2, w2, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th2, s2, math.cos(th2), w2, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k2t = d_w2
     d_k2w = a_th * d_th2 + a_om * d_w2
     th3 = theta + 0.5 * dt * k2t
@@ -553,7 +608,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
     d_th3 = 0.5 * k2t + 0.5 * dt * d_k2t
     d_w3 = 0.5 * k2w + 0.5 * dt * d_k2w
-    a_th, a_om = accel_grad(th3, s3, w3, tm, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th3, s3, math.cos(th3), w3, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k3t = d_w3
     d_k3w = a_th * d_th3 + a_om * d_w3
     th4 = theta + dt * k3t
@@ -563,7 +618,7 @@ def rk4_length_derivative(theta, omega, t, dt, s, k, forcing, t_start, h, kn, sl
     k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
     d_th4 = k3t + dt * d_k3t
     d_w4 = k3w + dt * d_k3w
-    a_th, a_om = accel_grad(th4, s4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g)
+    a_th, a_om = accel_grad(th4, s4, math.cos(th4), w4, t + dt, s, k, kn, slot_index, dcoeffs, g, dca)
     d_k4t = d_w4
     d_k4w = a_th * d_th4 + a_om * d_w4
     return ((k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0 + dt * (2.0 * d_k2t + 2.0 * d_k3t + d_k4t) / 6.0,
@@ -587,7 +642,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     n_steps, h, t_start, theta0, omega0, substeps, forcing : as :func:`rk_kernel_py`
     dtheta0, domega0 : float64 arrays (P,), derivatives of the initial state by the parameters
         (a unit vector for the columns of theta0 and omega0, else 0)
-    out_theta, out_omega, out_alpha : float64 arrays (>= n_steps + 1,), as :func:`rk_kernel_py`
+    out_theta, out_omega, out_alpha : float64 arrays (>= n_steps + 1,; ``out_alpha`` may be empty), as :func:`rk_kernel_py`
     out_dtheta, out_domega : float64 arrays (>= n_steps + 1, P) [rad / p_j], [rad/s / p_j]
 
     Notes
@@ -622,12 +677,15 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     kn = unpack(need)
     g = np.zeros(n_p)
     w = np.zeros((4, n_p))
+    dca = np.zeros(c.shape[0])  # d alpha/d c by slot (accel_grad's scratch)
     sth = dtheta0.copy()
     som = domega0.copy()
     delta = np.zeros(n_p)  # d(start time of the current segment)/dp, when it starts pinned at an event
     hs = h / substeps
     theta = theta0
     omega = omega0
+    st = math.sin(theta)  # as rk_kernel_py: rotated through the sub-steps, from libm at every sample
+    ct = math.cos(theta)
     s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
     if s == 0.0:
         omega = 0.0
@@ -635,8 +693,10 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
             som[j] = 0.0
     out_theta[0] = theta
     out_omega[0] = omega
-    out_alpha[0] = 0.0 if s == 0.0 else (
-        accel_terms(theta, math.sin(theta), omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+    want_alpha = out_alpha.shape[0] > 0
+    if want_alpha:
+        out_alpha[0] = 0.0 if s == 0.0 else (
+            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
     for j in range(n_p):
         out_dtheta[0, j] = sth[j]
         out_domega[0, j] = som[j]
@@ -654,14 +714,17 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                         for j in range(n_p):
                             som[j] = 0.0
                         break  # still stuck: theta, omega = 0 unchanged over this sub-step
-                th1, w1 = rk4_sens_step(theta, omega, t, remaining, s, kc, forcing, t_start, h, sth, som,
-                                        out_dtheta[i + 1], out_domega[i + 1], kn, slot_index, dcoeffs, g, w)
+                th1, w1, st1, ct1 = rk4_sens_step(theta, st, ct, omega, t, remaining, s, kc, forcing, t_start, h,
+                                                  sth, som, out_dtheta[i + 1], out_domega[i + 1], kn, slot_index,
+                                                  dcoeffs, g, w, dca)
                 if s * w1 >= 0.0:
                     if shifted:  # this segment started at an event: its start time (and length) move with p
                         e_th, e_om = rk4_length_derivative(theta, omega, t, remaining, s, kc, forcing, t_start, h,
-                                                           kn, slot_index, dcoeffs, g)
+                                                           kn, slot_index, dcoeffs, g, dca)
                     theta = th1
                     omega = w1
+                    st = st1
+                    ct = ct1
                     for j in range(n_p):
                         sth[j] = out_dtheta[i + 1, j]
                         som[j] = out_domega[i + 1, j]
@@ -681,7 +744,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                 side = 0
                 for _it in range(60):
                     tc = (ta * fb - tb * fa) / (fb - fa)
-                    thc, wc = rk4_step(theta, omega, t, tc, s, kc, forcing, t_start, h)
+                    thc, wc, _, _ = rk4_step(theta, st, ct, omega, t, tc, s, kc, forcing, t_start, h)
                     fc_ = s * wc
                     if fc_ > 0.0:
                         ta = tc
@@ -703,10 +766,10 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                 # dependence, d tau/dp = -S_omega / (d omega_end/d dt); the event's time moves by
                 # that plus the segment's start shift (the step's start time does not enter an
                 # autonomous step)
-                rk4_sens_step(theta, omega, t, tc, s, kc, forcing, t_start, h, sth, som, sth, som,
-                              kn, slot_index, dcoeffs, g, w)
+                rk4_sens_step(theta, st, ct, omega, t, tc, s, kc, forcing, t_start, h, sth, som, sth, som,
+                              kn, slot_index, dcoeffs, g, w, dca)
                 e_th, e_om = rk4_length_derivative(theta, omega, t, tc, s, kc, forcing, t_start, h,
-                                                   kn, slot_index, dcoeffs, g)
+                                                   kn, slot_index, dcoeffs, g, dca)
                 for j in range(n_p):
                     dtau = -som[j] / e_om if e_om != 0.0 else 0.0
                     sth[j] += e_th * dtau
@@ -714,6 +777,8 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                     som[j] = 0.0
                 shifted = True
                 theta = thc
+                st = math.sin(theta)
+                ct = math.cos(theta)
                 omega = 0.0
                 t = t + tc
                 remaining = remaining - tc
@@ -723,7 +788,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
             if shifted:  # an event at the sub-step's very end (or 16 of them): the pinned state's shift
                 if s != 0.0:
                     e_th, e_om = rk4_length_derivative(theta, omega, t, max(t_end - t, 0.0), s, kc, forcing,
-                                                       t_start, h, kn, slot_index, dcoeffs, g)
+                                                       t_start, h, kn, slot_index, dcoeffs, g, dca)
                     for j in range(n_p):
                         sth[j] -= e_th * delta[j]
                         som[j] -= e_om * delta[j]
@@ -733,13 +798,17 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
         ti = t_start + (i + 1) * h
         out_theta[i + 1] = theta
         out_omega[i + 1] = omega
+        st = math.sin(theta)
+        ct = math.cos(theta)
         for j in range(n_p):
             out_dtheta[i + 1, j] = sth[j]
             out_domega[i + 1, j] = som[j]
+        if not want_alpha:
+            continue
         if s == 0.0:
             out_alpha[i + 1] = 0.0
         else:
-            out_alpha[i + 1] = accel_terms(theta, math.sin(theta), omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
+            out_alpha[i + 1] = accel_terms(theta, st, omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
 
 
 SINCOS_STEP_MAX = 0.5  # [rad] the rotation's polynomials are exact to < 2e-17 up to this angle step
@@ -1074,10 +1143,10 @@ def _register() -> None:
     # inlining of the nested folds would cost minutes of compilation)
     formulas = tuple(t.fn for t in (T.BASE, *T.TERMS.values()) if t.fn is not None)
     derivatives = tuple(t.dfn for t in (T.BASE, *T.TERMS.values()) if t.dfn is not None)
-    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED):
+    for fn in (*formulas, *_FOLDED, _friction_seed, *derivatives, *_GRAD_FOLDED, *_SCATTER_FOLDED):
         register_jitable(fn)
     for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
-               memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, grad_smooth, grad_friction):
+               memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, sin_cos_at, grad_smooth, grad_friction):
         register_jitable(inline="always")(fn)
     for fn in (direction, rk4_step, rk4_length_derivative):  # larger: ordinary calls (inlining costs compile time)
         register_jitable(fn)

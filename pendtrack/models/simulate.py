@@ -134,7 +134,8 @@ def simulate_packed(coeffs: np.ndarray, n_steps: int, h: float, theta0: float, o
     memory_steps : int
         GL memory N in (internal) steps (>= 1) or -1 for the full history; ignored without memory.
     out_theta, out_omega, out_alpha : numpy.ndarray
-        float64 arrays of length >= n_steps + 1, overwritten [rad], [rad/s], [rad/s^2].
+        float64 arrays of length >= n_steps + 1, overwritten [rad], [rad/s], [rad/s^2]; for a model
+        without memory ``out_alpha`` may be empty (the acceleration is then not computed).
     t_start : float
         Time of sample 0 [s] (matters for the C4/(t - t0) term).
     substeps : int
@@ -154,7 +155,8 @@ def simulate_packed(coeffs: np.ndarray, n_steps: int, h: float, theta0: float, o
     predictor-corrector at step h (or h/substeps); the others RK4 with sgn events.
     """
     # cheap guards: numba does not bounds-check, a short array would be written past its end
-    if min(out_theta.shape[0], out_omega.shape[0], out_alpha.shape[0]) < n_steps + 1:
+    no_alpha = out_alpha.shape[0] == 0 and coeffs[K_HAS_MEMORY] == 0.0
+    if min(out_theta.shape[0], out_omega.shape[0], n_steps + 1 if no_alpha else out_alpha.shape[0]) < n_steps + 1:
         raise ModelError(f"output arrays must hold n_steps + 1 = {n_steps + 1} samples")
     f = _EMPTY if forcing is None else forcing
     if 0 < f.shape[0] < n_steps + 1:
@@ -211,20 +213,29 @@ def simulate_sensitivities(coeffs: np.ndarray, dcoeffs: np.ndarray, n_steps: int
     if coeffs[K_HAS_MEMORY] != 0.0:
         raise ModelError("sensitivities are computed for models without memory only")
     dcoeffs = np.asarray(dcoeffs, dtype=np.float64)
+    d_th0 = np.asarray(dtheta0, dtype=np.float64)
+    d_om0 = np.asarray(domega0, dtype=np.float64)
+    # a parameter that moves neither a coefficient nor the initial state (a measurement term's)
+    # has sensitivities 0 all along: not integrated
+    live = np.flatnonzero(np.any(dcoeffs != 0.0, axis=0) | (d_th0 != 0.0) | (d_om0 != 0.0))
     used = np.flatnonzero(np.any(dcoeffs != 0.0, axis=1)).astype(np.int64)
-    dc = np.ascontiguousarray(dcoeffs[used])
+    dc = np.ascontiguousarray(dcoeffs[np.ix_(used, live)])
     n_p = dcoeffs.shape[1]
     k = substeps if substeps > 0 else default_substeps(coeffs, h)
     th = np.empty(n_steps + 1)
     om = np.empty(n_steps + 1)
-    al = np.empty(n_steps + 1)
-    dth = np.empty((n_steps + 1, n_p))
-    dom = np.empty((n_steps + 1, n_p))
+    dth_live = np.empty((n_steps + 1, live.size))
+    dom_live = np.empty((n_steps + 1, live.size))
     kern = kernels.rk_sens_kernel_py if python else kernels.rk_sens_kernel_nb()
     with np.errstate(all="ignore"):  # the Python twin on numpy scalars: absent terms' 0/0 are never used
         kern(np.ascontiguousarray(coeffs, dtype=np.float64), used, dc, n_steps, h, t_start, float(theta0),
-             float(omega0), k, _EMPTY, np.asarray(dtheta0, dtype=np.float64).copy(),
-             np.asarray(domega0, dtype=np.float64).copy(), th, om, al, dth, dom)
+             float(omega0), k, _EMPTY, d_th0[live].copy(), d_om0[live].copy(), th, om, _EMPTY, dth_live, dom_live)
+    if live.size == n_p:
+        return th, om, dth_live, dom_live
+    dth = np.zeros((n_steps + 1, n_p))
+    dom = np.zeros((n_steps + 1, n_p))
+    dth[:, live] = dth_live
+    dom[:, live] = dom_live
     return th, om, dth, dom
 
 
