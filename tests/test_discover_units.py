@@ -250,6 +250,64 @@ def test_combination_starts_take_each_single_fit_and_the_others_scaled_start():
     assert combination_starts(("added_mass", "memory"), singles, {"memory": scaled["memory"]}) == [starts[0]]
 
 
+def test_subset_starts_swap_the_kept_effects_for_the_singles_fits():
+    from pendtrack.discovery.exchange import subset_starts
+
+    # the current model: memory + power drag, with an angle-scale term
+    warm = {"Omega0": 5.0, "C1": 0.02, "G2": 0.04, "beta": 1.4, "p_f": 2.2, "C3": 0.5, "p": 2.6, "k_scale": -3e-4,
+            "theta0": 2.9, "omega0": 0.0}
+    singles = {"added_mass": {"Omega0": 5.02, "C1": 0.0, "Ca": 0.026, "theta0": 2.91, "omega0": 0.01},
+               "time_varying_damping": {"Omega0": 4.99, "C1": 0.026, "C4": 1.3, "t0": -9.9, "theta0": 2.9,
+                                        "omega0": 0.0}}
+    starts = subset_starts(("added_mass", "time_varying_damping"), warm, singles, ("memory", "power_drag"))
+    assert len(starts) == 3
+    gone = {"G2", "beta", "p_f", "C3", "p"}
+    for st in starts:  # the replaced effects' parameters leave, the measurement term stays
+        assert not gone & set(st) and st["k_scale"] == -3e-4
+        assert (st["Ca"], st["C4"], st["t0"]) == (0.026, 1.3, -9.9)
+    assert starts[0]["Omega0"] == 5.0 and starts[0]["theta0"] == 2.9  # the current physics
+    assert starts[1]["Omega0"] == 5.02 and starts[1]["omega0"] == 0.01  # added mass's single fit
+    assert starts[2]["Omega0"] == 4.99 and starts[2]["C1"] == 0.026  # time-varying damping's
+    # an effect kept stays at its current value; a new one without a single fit gives no start
+    kept = subset_starts(("memory", "added_mass"), warm, singles, ("memory", "power_drag"))
+    assert all(st["G2"] == 0.04 and st["Ca"] == 0.026 and "C3" not in st for st in kept)
+    assert subset_starts(("added_mass", "time_varying_damping"), warm, {}, ("memory", "power_drag")) == []
+
+
+def test_equivalents_are_models_of_the_same_size_within_the_keep_threshold():
+    from pendtrack.discovery.result import Candidate, DiscoveryResult, FitSummary
+
+    from pendtrack.models import compose
+
+    def fit(extra, bic):
+        values = {k: 0.1 for k in compose("standard", list(extra)).param_names}
+        return FitSummary(model="+".join(("standard", *extra)), extra=tuple(extra), values=values, stderr={},
+                          u_paper={}, theta0=0.0, omega0=0.0, xi2=1e-5, rms=3e-3, bic=bic, n=1000, k=8,
+                          window=(0.0, 60.0), converged=True, message="", runtime_s=1.0)
+
+    def cand(extra, bic, *, keep=True, step=2):
+        return Candidate(extra[-1], step, 0.0, fit(extra, bic), fit(extra, bic), 3e-3, 1e-3, 10.0 if keep else 1.0,
+                         -50.0, True, keep, terms=(extra[-1],))
+
+    final = fit(("angle_scale", "memory", "power_drag"), -1000.0)
+    cands = (cand(("angle_scale", "memory", "time_varying_damping"), -998.0),  # 2 above: not told apart
+             cand(("memory", "time_varying_damping"), -995.0),  # the same effects without the measurement term
+             cand(("angle_scale", "memory", "added_mass"), -985.0),  # 15 above: the record prefers the final
+             cand(("angle_scale", "added_mass", "power_drag"), -999.0, keep=False),  # did not earn its keep
+             cand(("angle_scale", "memory"), -900.0, step=1),  # smaller
+             cand(("angle_scale", "memory", "power_drag"), -1000.0),  # the final model itself
+             cand(("angle_scale", "added_mass", "time_varying_damping"), -1003.0, step=0))  # a relabelled record
+    res = DiscoveryResult(baseline="standard", effects=("memory", "power_drag"), steps=(), candidates=cands,
+                          baseline_fit=fit((), -100.0), baseline_heldout_rms=0.03, final_fit=final,
+                          final_heldout_rms=3e-3, diagnosis={}, thresholds={"delta_bic_max": -10.0},
+                          measurement=("angle_scale",))
+    assert [(e["effects"], e["delta_bic"]) for e in res.equivalents] == [(["memory", "time_varying_damping"], 2.0)]
+    assert res.to_dict()["equivalents"] == list(res.equivalents)
+    assert DiscoveryResult(baseline="standard", effects=(), steps=(), candidates=cands, baseline_fit=final,
+                           baseline_heldout_rms=0.0, final_fit=final, final_heldout_rms=0.0, diagnosis={},
+                           thresholds={}).equivalents == ()
+
+
 def test_combinations_come_from_the_best_singles_by_heldout_gain():
     from types import SimpleNamespace
 

@@ -189,6 +189,13 @@ def write_markdown(result: DiscoveryResult) -> str:
                      "No catalogue term removes this structure; the terms kept are not its cause.")
     else:
         lines.append("Nothing stays unexplained: every diagnostic of the final model is within the noise.")
+    for eq in r.get("equivalents", []):
+        swapped = [e for e in eq["effects"] if e not in r["effects"]]
+        lost = [e for e in r["effects"] if e not in eq["effects"]]
+        lines.append(f"**Not told apart:** `{eq['model']}` fits the record about as well (BIC "
+                     f"{_f(eq['delta_bic'], '+.1f')}, less than the {_f(-r['thresholds']['delta_bic_max'], '.0f')} "
+                     f"an effect needs to be kept): {' + '.join(f'`{e}`' for e in swapped)} in the place of "
+                     f"{' + '.join(f'`{e}`' for e in lost)} is as likely a cause.")
     if ev.get("offset", 0.0) > NOISE_Z and "offset" not in r.get("measurement", []):
         lines.append(f"The baseline's residual has a persistent mean level of "
                      f"{_mrad(_mean_offset(base_d['cycles']))} mrad: theta's zero is probably not the rest position "

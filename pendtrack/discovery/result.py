@@ -272,6 +272,9 @@ class DiscoveryResult:
     unexplained : tuple of str
         Diagnostics still off after the final model
         (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`): structure no term removed.
+
+    ``equivalents`` (a property, in discovery.json): models as large as the final one that the
+    record does not tell apart from it.
     """
 
     baseline: str
@@ -300,6 +303,37 @@ class DiscoveryResult:
         return tuple(sorted(rest, key=lambda c: (c.kind != "measurement", c.step,
                                                  -(c.heldout_gain if math.isfinite(c.heldout_gain) else -1e9))))
 
+    @property
+    def equivalents(self) -> tuple[dict[str, Any], ...]:
+        """Models fitted in the search that the record supports about as well as the final one.
+
+        Each has as many physical effects as the final model but a different set, earned its
+        keep where it was judged, and has a whole-record BIC within ``-delta_bic_max`` of the
+        final model's: the evidence that the final model is better is weaker than the evidence
+        an effect needs to be kept at all (Kass and Raftery's "very strong"), so the record does
+        not tell them apart. (On a free decay, for one: a damping that weakens as the run goes
+        on and a drag whose relative damping weakens as the swings shrink.) Lowest BIC first.
+        """
+        from pendtrack.models import MEASUREMENT_TERMS
+
+        if not self.effects:
+            return ()
+        margin = -float(self.thresholds.get("delta_bic_max", -10.0))
+        best: dict[tuple[str, ...], Candidate] = {}
+        for c in self.candidates:
+            if c.step == 0 or c.kind != "effect" or c.full is None or not c.earns_keep:
+                continue
+            effects = tuple(sorted(t for t in c.full.extra if t not in MEASUREMENT_TERMS))
+            if len(effects) != len(self.effects) or set(effects) == set(self.effects):
+                continue
+            if c.full.bic - self.final_fit.bic <= margin and (effects not in best
+                                                               or c.full.bic < best[effects].full.bic):
+                best[effects] = c
+        rows = sorted(best.items(), key=lambda kv: kv[1].full.bic)
+        return tuple({"effects": list(k), "model": c.full.model,
+                      "delta_bic": _num(c.full.bic - self.final_fit.bic),
+                      "heldout_rms": _num(c.heldout_rms)} for k, c in rows)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "baseline": self.baseline,
@@ -308,6 +342,7 @@ class DiscoveryResult:
             "measurement": list(self.measurement),
             "measurement_steps": [s.to_dict() for s in self.measurement_steps],
             "unexplained": list(self.unexplained),
+            "equivalents": list(self.equivalents),
             "order": list(self.order or (*self.measurement, *self.effects)),
             "diagnosis": _jsonable(self.diagnosis),
             "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.effects),

@@ -12,20 +12,18 @@ import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 from pendtrack.config import Config
 from pendtrack.discovery import catalogue as C
 from pendtrack.discovery.data import AnalysisData, prepare
 from pendtrack.discovery.diagnostics import Diagnosis, diagnose, off_diagnostics
+from pendtrack.discovery.exchange import Context, recheck, replace_earlier, swap_subset
 from pendtrack.discovery.inputs import AngleSeries
 from pendtrack.discovery.starts import combination_starts, measurement_starts, scaled_starts
 from pendtrack.discovery.result import Candidate, DiscoveryResult, Step
-from pendtrack.discovery.selection import (
-    FitPair, FitTask, choose, fit_full, fit_pair, fit_train, judge, judge_heldout, make_executor, passes_heldout,
-    run_tasks, warm_start,
-)
+from pendtrack.discovery.selection import FitPair, FitTask, choose, fit_pair, make_executor, warm_start
 from pendtrack.errors import FitError
 from pendtrack.parallel import worker_count
 
@@ -40,129 +38,26 @@ def diagnose_pair(pair: FitPair, data: AnalysisData, config: Config) -> Diagnosi
                     near_fraction=dc.near_turning_fraction)
 
 
-@dataclass(frozen=True, eq=False)
-class _Context:
-    """What every step of one discovery shares."""
-
-    data: AnalysisData
-    baseline: str
-    config: Config
-    executor: Any
-    tick: Callable[[int], None]
-
-    def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
-                 starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
-                 seed: int, hold: Sequence[bool] | None = None) -> tuple[list[Candidate], list[FitPair]]:
-        """Fit ``baseline + kept + option`` for every option and judge it against ``current``.
-
-        Every option is fitted on the training part and predicts the held-out part; only one
-        that passes the held-out test earns a whole-record fit (for BIC). ``hold[i]``: option i's
-        training fit holds the physics at the current model's training fit (it fits the new
-        terms' parameters and the initial state only).
-        The whole-record fit, for BIC, frees everything.
-        """
-        dc = self.config.discover
-        data = self.data
-        warm = warm_start(current)
-        common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
-        from pendtrack.models import MEASUREMENT_TERMS
-
-        meas_params = {p for name in MEASUREMENT_TERMS for p in MEASUREMENT_TERMS[name].params}
-        physics = {k: v for k, v in warm.items() if k not in ("theta0", "omega0") and k not in meas_params}
-        hold = list(hold) if hold is not None else [False] * len(options)
-        tasks = [FitTask(data, self.baseline, (*kept, *opt), warm, dc.n_starts, seed, extra_starts=tuple(st),
-                         fixed=physics if h else None, **common)
-                 for opt, st, h in zip(options, starts, hold)]
-        pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
-        again = [i for i, p in enumerate(pairs)
-                 if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
-                                   min_gain=dc.heldout_min_gain, heldout_rms=current.heldout_rms)]
-        refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=self.executor)
-        for i, p in zip(again, refits):
-            pairs[i] = p
-        judged = [judge(p, current, data, effect="+".join(opt), terms=tuple(opt), kind=kind, step=step, score=s,
-                        delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min,
-                        min_gain=dc.heldout_min_gain)
-                  for p, opt, s in zip(pairs, options, scores)]
-        return judged, pairs
-
-
-def _without(warm: dict[str, float], term: str) -> dict[str, float]:
-    """A warm start less one term's parameters."""
-    from pendtrack.models import CATALOGUE
-
-    drop = set(CATALOGUE[term].params)
-    return {k: v for k, v in warm.items() if k not in drop}
-
-
-def _recheck(ctx: _Context, current: FitPair, terms: Sequence[str], term: str, *, kind: str,
-             step: int) -> tuple[Candidate, FitPair]:
-    """Does ``term`` still earn its keep in the model ``baseline + terms``?
-
-    The model without it is fitted (training part, then the whole record, warm-started from the
-    current fit less the term's parameters) and the current model is judged against it as if
-    the term were being added now, by the same held-out and BIC rules.
-    """
-    dc = ctx.config.discover
-    reduced_terms = tuple(t for t in terms if t != term)
-    task = FitTask(ctx.data, ctx.baseline, reduced_terms, _without(warm_start(current), term), dc.n_starts,
-                   dc.seed + 200 + step, cost=ctx.config.fit.cost, memory_s=ctx.config.models.memory_s)
-    reduced = fit_pair(task)
-    ctx.tick(1)
-    if reduced.error or reduced.full is None:  # the simpler model cannot be fitted: the term stays
-        return Candidate(term, step, 0.0, current.train, current.full, current.heldout_rms, math.inf, math.inf,
-                         -math.inf, True, True, terms=(term,), kind=kind), reduced
-    cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind=kind, step=step, score=0.0,
-                 delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
-    return cand, reduced
-
-
-def _replace_earlier(ctx: _Context, current: FitPair, meas_kept: Sequence[str], accepted: Sequence[str],
-                     others: Sequence[str], *, step: int) -> tuple[list[Candidate], tuple | None]:
-    """Sequential replacement: would another effect do better in the place of one kept earlier?
-
-    Forward selection keeps the effect that earns its keep with the lowest BIC at each step, and
-    a flexible effect kept first can stand in for another: memory with ``beta`` near 1 or 2 is a
-    local, velocity-dependent inertia and absorbs most of an added mass, which then no longer
-    earns its keep beside it (measured: added mass + time-varying damping at 120 Hz found as
-    memory + time-varying damping). For every effect ``e`` kept *before* the last one, the model
-    without ``e`` is fitted, and every catalogue effect ``f`` not in the model is added to it by the
-    usual rules (held-out and BIC against the model without ``e``). A replacement that earns its
-    keep there *and* gives a lower BIC than the current model is a better model of the same size
-    or smaller. (The last effect kept needs no such test: its step already compared every
-    alternative against the same model.)
-
-    Returns
-    -------
-    judged : list of Candidate
-        Every replacement tried (for the record).
-    best : tuple or None
-        ``(e, candidate, pair, reduced)`` of the lowest-BIC replacement that qualifies.
-    """
-    dc = ctx.config.discover
-    judged_all: list[Candidate] = []
-    best = None
-    assert current.full is not None
-    for e in accepted[:-1]:
-        if not others:
-            break
-        _, reduced = _recheck(ctx, current, (*meas_kept, *accepted), e, kind="effect", step=step)
-        if reduced.error or reduced.full is None or reduced.train is None:
-            continue
-        kept = (*meas_kept, *(a for a in accepted if a != e))
-        warm = warm_start(reduced)
-        starts = [scaled_starts(ctx.baseline, kept, f, warm, ctx.data, memory_s=ctx.config.models.memory_s)
-                  for f in others]
-        judged, pairs = ctx.evaluate(reduced, kept, [(f,) for f in others], starts, [0.0] * len(others), step=step,
-                                     kind="effect", seed=dc.seed + 300 + step)
-        for c, p in zip(judged, pairs):
-            better = bool(c.earns_keep and p.full is not None and p.full.bic < current.full.bic)
-            judged_all.append(replace(c, note=f"tried in the place of {e}: " + (
-                f"BIC {p.full.bic - current.full.bic:+.1f} against the current model" if p.full is not None
-                else c.reason())))
-            if better and (best is None or p.full.bic < best[2].full.bic):
-                best = (e, c, p, reduced)
-    return judged_all, best
+def _adopt_subset(subset: tuple, current: FitPair, accepted: list[str], order: list[str], banned: set[str],
+                  steps: list[Step], judged_all: list[Candidate], data: AnalysisData,
+                  config: Config) -> tuple[FitPair, Diagnosis, list[Step]]:
+    """Put the effects of :func:`~pendtrack.discovery.exchange.swap_subset`'s set in the place of the
+    kept ones (``accepted``, ``order``, ``banned`` and ``judged_all`` updated in place); returns the
+    new current fit, its diagnosis and the steps."""
+    new, cand, pair = subset
+    assert current.full is not None and pair.full is not None
+    for gone in [e for e in accepted if e not in new]:
+        judged_all.append(replace(cand, step=0, effect=gone, terms=(gone,), note=(
+            f"kept, replaced with {'+'.join(e for e in new if e not in accepted)} by {cand.effect} "
+            f"(BIC {pair.full.bic - current.full.bic:+.1f}): the model with them in its place is better")))
+        accepted.remove(gone)
+        order.remove(gone)
+        banned.add(gone)
+    added = [e for e in new if e not in accepted]
+    accepted.extend(added)
+    order.extend(added)
+    steps = [s for s in steps if all(n in accepted for n in s.names)] + [_step(cand, current, pair)]
+    return pair, diagnose_pair(pair, data, config), steps
 
 
 def _step(best: Candidate, current: FitPair, pair: FitPair) -> Step:
@@ -280,10 +175,12 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
     diag_measured: Diagnosis | None = None
     order: list[str] = []  # every term kept, in the order it was kept
     executor = make_executor(worker_count(workers, max(len(pool), len(meas_pool), 1)))
-    ctx = _Context(data, baseline, config, executor, tick)
+    ctx = Context(data, baseline, config, executor, tick)
     try:
         step = mstep = 0
         banned: set[str] = set()  # terms dropped by the final check: not tried again
+        first_singles: dict[str, dict[str, float]] = {}  # each effect's fit alone on the first effect round
+        subset_tried = False
         confirmed: dict[str, tuple[str, ...]] = {}  # term -> the model (its terms) the final check kept it in
         while True:
             while True:
@@ -344,6 +241,8 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
                     judged_all.extend(judged)
                     best = choose(judged)
                     chosen_pairs, chosen_judged = pairs, judged
+                    if not first_singles:
+                        first_singles = {c.effect: warm_start(p) for c, p in zip(judged, pairs) if p.train is not None}
                     # effects in combination: none alone earns its keep, yet the residual has structure
                     size = 2
                     while (best is None and size <= dc.max_combination and size <= len(remaining)
@@ -363,8 +262,19 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
                 if best is None:
                     # no effect to add: would one kept earlier do better replaced by another?
                     others = [e.name for e in remaining]
-                    tried, swap = _replace_earlier(ctx, current, meas_kept, accepted, others, step=step)
+                    tried, swap = replace_earlier(ctx, current, meas_kept, accepted, others, step=step)
                     judged_all.extend(tried)
+                    if swap is None and not subset_tried:
+                        # ... or two at once (once per discovery: each set of that size is fitted then)
+                        subset_tried = True
+                        pool_names = [e.name for e in pool if e.name not in banned]
+                        tried, subset = swap_subset(ctx, current, meas_kept, accepted, pool_names, first_singles,
+                                                    step=step)
+                        judged_all.extend(tried)
+                        if subset is not None:
+                            current, diag_current, steps = _adopt_subset(
+                                subset, current, accepted, order, banned, steps, judged_all, data, config)
+                            continue
                     if swap is None:
                         break
                     gone, cand, pair, reduced = swap
@@ -398,7 +308,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
                 model_terms = tuple(sorted(order))
                 if confirmed.get(term) == model_terms:  # already judged in this very model
                     continue
-                cand, reduced = _recheck(ctx, current, (*meas_kept, *accepted), term, kind=kind,
+                cand, reduced = recheck(ctx, current, (*meas_kept, *accepted), term, kind=kind,
                                          step=(len(meas_steps) if kind == "measurement" else len(steps)) + 1)
                 if cand.earns_keep:
                     confirmed[term] = model_terms

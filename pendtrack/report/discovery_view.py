@@ -119,6 +119,10 @@ def discovery_section(run: RunData) -> Section:
     unexplained = d.get("unexplained")
     if isinstance(unexplained, list) and unexplained:
         facts.append(("not explained by the catalogue", ", ".join(map(str, unexplained))))
+    for eq in d.get("equivalents") or []:  # a model the record does not tell apart from the final one
+        if isinstance(eq, Mapping) and isinstance(eq.get("effects"), list):
+            facts.append(("not told apart from", " + ".join(map(str, eq["effects"]))
+                          + (f" (BIC {eq['delta_bic']:+.1f})" if isinstance(eq.get("delta_bic"), (int, float)) else "")))
     if isinstance(final, Mapping):
         if (v := _mrad(final.get("rms"))) is not None:
             facts.append(("its RMS", f"{v:.3g} mrad"))
