@@ -165,3 +165,22 @@ def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
             for f in reader:
                 if f.index == 3:
                     raise RuntimeError("consumer gave up")
+
+
+def test_prefetch_shortens_the_gil_switch_interval_only_while_it_runs(tmp_path):
+    import sys
+
+    import pendtrack.video.reader as reader_module
+
+    video = _encode(tmp_path / "v.mp4", _grey_frames(12))
+    before = sys.getswitchinterval()
+    seen = []
+    with VideoReader(video, prefetch=2) as a, VideoReader(video, prefetch=2) as b:
+        for fa, fb in zip(a, b):  # two prefetchers at once: restored only after both
+            seen.append(sys.getswitchinterval())
+            if fa.index == 4:
+                break  # leaving early restores it too
+    assert max(seen) <= reader_module.PREFETCH_SWITCH_INTERVAL_S
+    assert sys.getswitchinterval() == before
+    for _ in VideoReader(video, prefetch=0):  # no decoder thread: left alone
+        assert sys.getswitchinterval() == before
