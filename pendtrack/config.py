@@ -135,6 +135,14 @@ class FitConfig:
     # standard errors always use central finite differences. Same minima as "fd" (classic, 60 s, 150
     # starts: Xi^2_min 1.8e-7 lower, values within 0.03 standard errors), 1.7x faster (benchmarks/bench_jacobian.py)
     jacobian: str = "sensitivity"
+    # RK4 sub-step of the fitted models without memory, Omega h_sub <= substep_phase [rad] (2 sub-steps
+    # at 120 fps; the simulation's own 0.015 rad gives 3); 0 = that own. Its error (<= 1e-6 rad over 60 s)
+    # is 3000 times below the angle's noise: the same fits (Xi^2_min within 7e-7 relative, values within
+    # 1e-4 standard errors) for 2/3 of the simulations' time (benchmarks/bench_fit_settings.py)
+    substep_phase: float = 0.025
+    # the same for the sensitivity Jacobian that steers each Levenberg-Marquardt iteration (1 sub-step at
+    # 120 fps); 0 = substep_phase. Where a fit ends is set by its residuals whatever steers it there
+    steer_phase: float = 0.05
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -333,6 +341,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.cost": (_one_of(FIT_COSTS),),
     "fit.offset": (_one_of(FIT_OFFSETS),),
     "fit.jacobian": (_one_of(FIT_JACOBIANS),),
+    "fit.substep_phase": (_ge(0),),
+    "fit.steer_phase": (_ge(0),),
     "fit.n_starts": (_ge(1),),
     "fit.accept_ratio": (_ge(1),),
     "fit.start_spread": (_ge(0),),

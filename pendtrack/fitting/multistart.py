@@ -234,7 +234,7 @@ class _Tracker:
         self.calls += worth
         if before < mark <= self.calls:
             self.best_at_80 = self.best_cost
-        return self.problem.jacobian_sensitivity(x)
+        return self.problem.jacobian_sensitivity(x, steer=True)
 
     @property
     def settled(self) -> bool:

@@ -95,10 +95,10 @@ class SimResult:
                 "substeps": self.substeps, "memory_steps": self.memory_steps}
 
 
-def default_substeps(coeffs: np.ndarray, h: float) -> int:
-    """RK4 sub-steps per output step so that ``Omega * h_sub <= SUBSTEP_PHASE``."""
+def default_substeps(coeffs: np.ndarray, h: float, phase: float = SUBSTEP_PHASE) -> int:
+    """RK4 sub-steps per output step so that ``Omega * h_sub <= phase`` [rad] (default :data:`SUBSTEP_PHASE`)."""
     w = math.sqrt(max(coeffs[K_SIN], 0.0) + max(coeffs[K_LIN], 0.0))
-    return max(1, int(math.ceil(w * h / SUBSTEP_PHASE)))
+    return max(1, int(math.ceil(w * h / phase)))
 
 
 def pc_substeps(h: float, max_step_s: float | None = None) -> int:
