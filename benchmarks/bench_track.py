@@ -27,7 +27,10 @@ Each repetition measures, back to back on the same file:
 
 Rates are frames per second of wall-clock time (median over repetitions) and, for the
 single-threaded variants, per second of process CPU time, which is steadier on a shared
-machine. The ratio of interest is ``track / decode`` with the same decoder settings.
+machine. The ratio of interest is ``track / decode`` with the same decoder settings; for
+``1T+pf`` it is also given paired (each repetition's track rate over that repetition's
+decode rate, median over repetitions), which a drift of the machine's load between
+repetitions moves less than the ratio of the two medians.
 
 On a loaded machine the two threads of ``track 1T+pf`` seldom get two cores, and its wall
 ratio says little. The ``model`` line is steadier: each repetition also times, in CPU
@@ -213,9 +216,11 @@ def measure(video: Path, repeats: int) -> None:
     print(f"{'':14s}{'wall fps':>10s}{'cpu fps':>10s}   (min..max wall)")
     for k in wall:
         print(f"{k:14s}{med[k]:10.0f}{medc[k]:10.0f}   ({min(wall[k]):.0f}..{max(wall[k]):.0f})")
+    paired = [t / d for t, d in zip(wall["track 1T+pf"], wall["decode 1T"])]
     print("ratios (track / decode-only, same decoder settings):")
     print(f"  1T    wall {med['track 1T'] / med['decode 1T']:.2f}   cpu {medc['track 1T'] / medc['decode 1T']:.2f}")
-    print(f"  1T+pf wall {med['track 1T+pf'] / med['decode 1T']:.2f}   (decoder on its own thread)")
+    print(f"  1T+pf wall {med['track 1T+pf'] / med['decode 1T']:.2f}   (decoder on its own thread); paired, each "
+          f"repetition's own decode: median {statistics.median(paired):.2f} ({min(paired):.2f}..{max(paired):.2f})")
     print(f"  AUTO  wall {med['track AUTO'] / med['decode AUTO']:.2f}")
     print("  model (serial run's per-frame CPU times, two free cores, no contention): 1T+pf "
           + ", ".join(f"{statistics.median(v):.2f} ({k})" for k, v in models.items()))
