@@ -20,8 +20,10 @@ from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import FitResult, Observation, ParamEstimate, build_problem, cross_model_relations, fit_model
 from pendtrack.fitting.cost import residual_vector
+from pendtrack.fitting.fitter import check_options
 from pendtrack.fitting.ladder import LadderRules, run_ladder
 from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
+from pendtrack.fitting.search import hopeless_ratio
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
 
@@ -228,6 +230,15 @@ def test_ladder_rules_stop_hopeless_starts_and_merge_duplicates_alike_in_any_num
         assert not o.success and first[o.index].cost > first[low].cost
         np.testing.assert_array_equal(o.x, first[o.index].x)  # it ends where the window left it,
         assert o.cost == prob.cost_value(o.x)  # its cost taken on the whole window
+
+
+def test_the_hopeless_rule_applies_to_models_with_memory_only_by_their_own_ratio():
+    options = FitConfig(hopeless_ratio=30.0, hopeless_ratio_memory=0.0)
+    assert hopeless_ratio(ToyModel(), options) == 30.0
+    assert hopeless_ratio(ToyModel(has_memory=True), options) == 0.0
+    assert hopeless_ratio(ToyModel(has_memory=True), FitConfig(hopeless_ratio_memory=50.0)) == 50.0
+    with pytest.raises(FitError, match="hopeless_ratio_memory must be 0"):
+        check_options(FitConfig(hopeless_ratio_memory=0.5))
 
 
 def test_fit_model_on_toy_gives_calibrated_result_and_json():

@@ -55,8 +55,9 @@ def check_options(options: FitConfig, *, source: str = "the data") -> None:
         raise FitError(f"n_starts must be >= 1, got {options.n_starts}", path=source)
     if options.accept_ratio < 1:
         raise FitError(f"accept_ratio must be >= 1, got {options.accept_ratio}", path=source)
-    if 0 < options.hopeless_ratio < 1:
-        raise FitError(f"hopeless_ratio must be 0 (off) or >= 1, got {options.hopeless_ratio}", path=source)
+    for key in ("hopeless_ratio", "hopeless_ratio_memory"):
+        if 0 < getattr(options, key) < 1:
+            raise FitError(f"{key} must be 0 (off) or >= 1, got {getattr(options, key)}", path=source)
 
 
 def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -55,6 +56,15 @@ class Search:
         return next(i for i, o in enumerate(self.outcomes) if o.index == self.best.index)
 
 
+def hopeless_ratio(model: Any, options: FitConfig) -> float:
+    """The ladder's hopeless ratio for ``model``: ``hopeless_ratio_memory`` if it has memory, else ``hopeless_ratio``.
+
+    A window of a quarter of the record pins a model without memory (its accepted starts are
+    within ~10x of the lowest cost there), but not the memory of one with it.
+    """
+    return options.hopeless_ratio_memory if model.has_memory else options.hopeless_ratio
+
+
 def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
            extra_starts: Sequence[Mapping[str, float]] = (),
            on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> Search:
@@ -65,7 +75,8 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     setup : Setup
         From :func:`pendtrack.fitting.estimate.estimate`.
     options : FitConfig
-        Uses ``n_starts``, ``ladder``, ``start_budget``, ``hopeless_ratio`` and ``merge_tol``
+        Uses ``n_starts``, ``ladder``, ``start_budget``, ``hopeless_ratio`` (or
+        ``hopeless_ratio_memory`` for a model with memory) and ``merge_tol``
         (:class:`pendtrack.fitting.ladder.LadderRules`: which starts end before the whole window).
     seed : int
         Seed of the start draws.
@@ -93,7 +104,7 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
         starts = np.vstack((starts, inside_bounds(np.array(rows), problem.lower, problem.upper)))
     ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end) if options.ladder
             else (problem.t_end,))
-    rules = LadderRules(hopeless_ratio=options.hopeless_ratio, merge_tol=options.merge_tol, scale=setup.half_widths)
+    rules = LadderRules(hopeless_ratio=hopeless_ratio(problem.model, options), merge_tol=options.merge_tol, scale=setup.half_widths)
     outcomes = run_ladder(problem, starts, ends, rules=rules, workers=workers, max_nfev=options.start_budget,
                           on_progress=on_progress, deadline=deadline)
     xs = np.array([o.x for o in outcomes])
