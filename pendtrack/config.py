@@ -115,7 +115,7 @@ class FitConfig:
     # a start of a model without memory whose cost on a shorter window of the ladder (at least 1/4 of the
     # record) exceeds this many times the lowest any start up to it reached there stops there; 0 = never.
     # 60-s bench record: the starts that ended accepted were at most 11x (classic) and 7.9x (OPA) the lowest
-    # there; classic's 150 starts then take ~30 % less CPU (benchmarks/bench_fit_settings.py)
+    # there; classic's 150 starts then run 1.5x faster, same results (benchmarks/bench_fit_settings.py)
     hopeless_ratio: float = 30.0
     # the same for the models with memory; off: on the 60-s bench record fractional starts 500x the lowest
     # on the 23-s window still ended among the accepted ones (the memory is not pinned by a short window)
