@@ -98,8 +98,8 @@ class Observation:
         om = np.array(omega, dtype=float)
         # both filters in one pass (numba): np.convolve twice cost ~0.25 ms per 10^4 samples,
         # a third of a fit's time per model evaluation
-        filter_kernel()(theta, _coeffs(w, self.savgol_order, 0, 1.0)[::-1].copy(),
-                        _coeffs(w, self.savgol_order, 1, h)[::-1].copy(), smoothed, om)
+        filter_kernel()(theta, _reversed_coeffs(w, self.savgol_order, 0, 1.0),
+                        _reversed_coeffs(w, self.savgol_order, 1, h), smoothed, om)
         return (smoothed if self.smooth_theta else theta), om
 
 
@@ -124,8 +124,8 @@ class Observation:
         th_t = np.ascontiguousarray(theta.T)
         sm = th_t.copy()
         om = np.array(omega.T, dtype=float, order="C")
-        cs = _coeffs(w, self.savgol_order, 0, 1.0)[::-1].copy()
-        cd = _coeffs(w, self.savgol_order, 1, h)[::-1].copy()
+        cs = _reversed_coeffs(w, self.savgol_order, 0, 1.0)
+        cd = _reversed_coeffs(w, self.savgol_order, 1, h)
         kern = filter_kernel()
         for j in range(th_t.shape[0]):
             kern(th_t[j], cs, cd, sm[j], om[j])
@@ -209,6 +209,13 @@ def _coeffs(window: int, order: int, deriv: int, delta: float) -> np.ndarray:
     c = savgol_coeffs(window, order, deriv=deriv, delta=delta, use="conv")
     c.setflags(write=False)
     return c
+
+
+@lru_cache(maxsize=32)
+def _reversed_coeffs(window: int, order: int, deriv: int, delta: float) -> np.ndarray:
+    """:func:`_coeffs` reversed and contiguous (the filter kernel's correlation order). Writable, so the
+    numba kernel keeps its one signature; nothing writes to it."""
+    return _coeffs(window, order, deriv, delta)[::-1].copy()
 
 
 def residual_vector(theta_mod: np.ndarray, omega_mod: np.ndarray, theta_exp: np.ndarray,

@@ -33,8 +33,11 @@ Simulator = Callable[..., Any]
 
 def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, t_start: float, theta0: float,
                      omega0: float, memory_s: float, full_history: bool,
-                     max_step_s: float | None = None, substep_phase: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                     max_step_s: float | None = None, substep_phase: float = 0.0,
+                     validated: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The models package's unchecked hot path (no SimResult, no time-axis checks).
+
+    ``validated``: ``params`` is already ``model.validate``'s output.
 
     A model with memory runs the predictor-corrector with ``pc_substeps(h, max_step_s)``
     internal sub-steps (none at 120 fps) and its memory as the duration ``memory_s``; the
@@ -43,7 +46,7 @@ def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, 
     """
     from pendtrack.models.simulate import default_substeps, memory_steps_for, pc_substeps, simulate_packed
 
-    coeffs = model.pack(params)  # validates the physical ranges (ModelError)
+    coeffs = model.pack(params, validated=validated)  # validates the physical ranges (ModelError)
     if model.has_memory:
         k = pc_substeps(h, max_step_s)
     else:
@@ -160,12 +163,12 @@ class FitProblem:
     steer_phase: float = 0.0
 
     # ---- names -------------------------------------------------------------------------
-    @property
+    @cached_property  # asked for on every evaluation (the fields are frozen)
     def all_names(self) -> tuple[str, ...]:
         """Model parameter names then the initial state, fixed ones included."""
         return tuple(self.model.param_names) + STATE_NAMES
 
-    @property
+    @cached_property
     def names(self) -> tuple[str, ...]:
         """Names of the fitted vector (fixed parameters left out)."""
         return tuple(n for n in self.all_names if n not in self.fixed)
@@ -213,19 +216,23 @@ class FitProblem:
         p = self.full(x)
         n = self.n_grid if n_grid is None else n_grid
         params = {k: v for k, v in p.items() if k not in STATE_NAMES}
+        validated = False
         if self.simulator is None:
+            params = self.model.validate(params)  # once: packing and the measurement terms take it as it is
+            validated = True
             theta, omega = _simulate_packed(self.model, params, n, self.h, self.t_start, p["theta0"], p["omega0"],
-                                            self.memory_s, self.full_history, self.max_step_s, self.substep_phase)
+                                            self.memory_s, self.full_history, self.max_step_s, self.substep_phase,
+                                            validated=True)
         else:
             t = self.t_start + self.h * np.arange(n)
             res = self.simulator(self.model, params, t, theta0=p["theta0"], omega0=p["omega0"],
                                  memory_s=self.memory_s, method=self.method)
             theta = np.asarray(res.theta, dtype=float)
             omega = np.asarray(res.omega, dtype=float)
-        if theta.shape != (n,) or not (np.all(np.isfinite(theta)) and np.all(np.isfinite(omega))):
+        if theta.shape != (n,) or not (np.isfinite(theta).all() and np.isfinite(omega).all()):
             raise FloatingPointError("simulation did not return finite values on the grid")
         if getattr(self.model, "measurement_terms", ()):  # the camera measures theta_obs; the pipeline then filters it
-            theta, omega = self.model.observe_state(theta, omega, params)
+            theta, omega = self.model.observe_state(theta, omega, params, validated=validated)
         return self.observation.apply(theta, omega, self.h)
 
     def model_at_data(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -360,12 +367,12 @@ class FitProblem:
         from pendtrack.models.terms import LAYOUT
 
         p = self.full(x)
-        params = {k: v for k, v in p.items() if k not in STATE_NAMES}
         model = self.model
-        coeffs = model.pack(params)  # validates the physical ranges (ModelError)
+        params = model.validate({k: v for k, v in p.items() if k not in STATE_NAMES})  # the physical ranges (ModelError)
+        coeffs = model.pack(params, validated=True)
         names = self.names
         phys = [n for n in names if n in params]
-        dpack = LAYOUT.pack_jacobian(model.terms, model.validate(params), phys)
+        dpack = LAYOUT.pack_jacobian(model.terms, params, phys)
         dcoeffs = np.zeros((coeffs.size, len(names)))
         d_theta0 = np.zeros(len(names))
         d_omega0 = np.zeros(len(names))
@@ -409,8 +416,8 @@ class FitProblem:
         from pendtrack.models.terms import CATALOGUE
 
         model = self.model
-        p = model.validate(params)
-        th_obs, om_obs = model.observe_state(theta, omega, p)
+        p = params  # validated by the caller
+        th_obs, om_obs = model.observe_state(theta, omega, p, validated=True)
         d = OBSERVE_FD_STEP
         eps = 1e-30
 

@@ -101,7 +101,7 @@ class Model:
             raise ModelError(f"model '{self.name}' has no parameter '{name}' (has {', '.join(self.param_names)})")
         return PARAMS[name]
 
-    @property
+    @cached_property  # asked for on every model evaluation of a fit
     def has_memory(self) -> bool:
         """True if a term needs the history (the fractional GL term)."""
         return any(CATALOGUE[t].has_memory for t in self.terms)
@@ -137,15 +137,18 @@ class Model:
             out[name] = value
         return out
 
-    def pack(self, params: Mapping[str, float]) -> np.ndarray:
+    def pack(self, params: Mapping[str, float], *, validated: bool = False) -> np.ndarray:
         """Validate ``params`` and pack them into the kernels' coefficient vector.
+
+        ``validated``: ``params`` is already :meth:`validate`'s output (a fit's hot path validates
+        once per evaluation and passes the result on).
 
         Returns
         -------
         numpy.ndarray
             float64, shape ``(terms.N_COEFFS,)``; layout ``terms.K_*``.
         """
-        return LAYOUT.pack(self.terms, self.validate(params))
+        return LAYOUT.pack(self.terms, params if validated else self.validate(params))
 
     def check_domain(self, params: Mapping[str, float], t_first: float) -> None:
         """Raise if validated ``params`` are outside a term's domain for times from ``t_first`` [s] on.
@@ -182,8 +185,8 @@ class Model:
         """
         return self._observe(np.asarray(theta, dtype=np.float64), self.validate(params))
 
-    def observe_state(self, theta: np.ndarray, omega: np.ndarray,
-                      params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    def observe_state(self, theta: np.ndarray, omega: np.ndarray, params: Mapping[str, float], *,
+                      validated: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The observed angle and angular velocity of the model's ``(theta, omega)``.
 
         ``theta_obs = f(theta)`` as in :meth:`observe`, and ``omega_obs = d theta_obs/dt =
@@ -197,6 +200,8 @@ class Model:
             The model's angle [rad] and angular velocity [rad/s].
         params : mapping
             The model's parameters (measurement parameters included).
+        validated : bool
+            ``params`` is already :meth:`validate`'s output.
 
         Returns
         -------
@@ -205,7 +210,7 @@ class Model:
         """
         if not self.measurement_terms:
             return theta, omega
-        p = self.validate(params)
+        p = params if validated else self.validate(params)
         theta = np.asarray(theta, dtype=np.float64)
         d = OBSERVE_FD_STEP
         slope = (self._observe(theta + d, p) - self._observe(theta - d, p)) / (2.0 * d)
