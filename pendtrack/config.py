@@ -29,6 +29,7 @@ VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg
 LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta
 FIT_JACOBIANS = ("sensitivity", "fd")  # [fit] jacobian: forward sensitivity equations | finite differences
+FIT_COORDINATES = ("decorrelated", "natural")
 FIT_OFFSETS = ("auto", "always", "never")  # [fit] offset: fit theta's zero (theta_off) when not measured, always, never
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
@@ -147,6 +148,11 @@ class FitConfig:
     # the same for the sensitivity Jacobian that steers each Levenberg-Marquardt iteration (1 sub-step at
     # 120 fps); 0 = substep_phase. Where a fit ends is set by its residuals whatever steers it there
     steer_phase: float = 0.05
+    # the coordinates of the Levenberg-Marquardt steps: "decorrelated" = the damping amplitudes at data-derived
+    # references (D = C3 x_ref^p; G2 0.5^beta a_ref^p_f) and the time-varying damping's rate and its relative
+    # change (C4/(t_ref - t0), 1/(t_ref - t0)) (pendtrack.fitting.coordinates); "natural" = the model's
+    # parameters. Only the steps' path changes: every value is reported in the model's parameters
+    coordinates: str = "decorrelated"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -347,6 +353,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.jacobian": (_one_of(FIT_JACOBIANS),),
     "fit.substep_phase": (_ge(0),),
     "fit.steer_phase": (_ge(0),),
+    "fit.coordinates": (_one_of(FIT_COORDINATES),),
     "fit.n_starts": (_ge(1),),
     "fit.accept_ratio": (_ge(1),),
     "fit.start_spread": (_ge(0),),

@@ -12,17 +12,15 @@ import math
 
 import numpy as np
 import pytest
+from synthetic_problems import FS, synthetic_problem
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting import Observation, build_problem
 from pendtrack.fitting.multistart import local_fit
 from pendtrack.fitting.uncertainty import hac_covariance
-from pendtrack.kinematics import savgol_kinematics
-from pendtrack.models import get_model, simulate
+from pendtrack.models import get_model
 from pendtrack.models import terms as T
 from pendtrack.models.simulate import simulate_packed, simulate_sensitivities
 
-FS = 120.0
 TRUTHS = {
     "standard": {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002},
     "classic": {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": 2.0, "Ca": 0.01},
@@ -36,20 +34,9 @@ TRUTHS = {
 
 
 def _problem(name: str, seconds: float = 10.0, *, cost: str = "xi2", seed: int = 0):
-    """A FitProblem on a synthetic, noisy, Savitzky-Golay-filtered record of ``name``."""
-    m = get_model(name)
-    truth = TRUTHS[name]
-    t = np.arange(int(seconds * FS)) / FS
-    phys = {k: v for k, v in truth.items() if k in m.physics().param_names}
-    sim = simulate(m.physics(), phys, t, theta0=2.8, omega0=0.0)
-    theta = m.observe(sim.theta, truth) + np.random.default_rng(seed).normal(0.0, 3e-3, t.size)
-    kin = savgol_kinematics(t, theta, window_s=25 / FS, order=3)
-    obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=3)
-    prob = build_problem(m, kin.t, kin.theta, kin.omega, ok=kin.ok, omega0_hat=truth["Omega0"], observation=obs,
-                         cost=cost, jacobian_method="sensitivity")
-    # a point off the truth (1 % on every parameter), released with some speed: a generic point
-    x = np.array([truth[n] * 1.01 for n in m.param_names] + [2.79, 0.05])
-    return prob, x
+    """A FitProblem on a synthetic, noisy, Savitzky-Golay-filtered record of ``name``, and a point
+    off the truth (1 % on every parameter, released with some speed): a generic point."""
+    return synthetic_problem(name, TRUTHS[name], seconds, cost=cost, seed=seed)
 
 
 def _column_errors(a: np.ndarray, ref: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.errors import FitError, PendtrackError
 from pendtrack.fitting.estimates import DataSummary, Estimates, equation_error_estimates
 from pendtrack.fitting.problem import FitProblem, Simulator
+from pendtrack.fitting.coordinates import fit_coordinates
 from pendtrack.fitting.record import Record, build_problem, uniform_series
 
 THETA0_SPREAD = 0.02  # start half-width of the initial angle [rad] (~7x the tracking noise)
@@ -74,7 +75,8 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     model : Model
     record : Record
     options : FitConfig
-        Uses ``cost``, ``start_spread`` and ``omega0_spread``.
+        Uses ``cost``, ``start_spread``, ``omega0_spread`` and ``coordinates`` (the steps' coordinates
+        from the data: :func:`pendtrack.fitting.coordinates.fit_coordinates`).
     model_options : ModelsConfig
         Memory of the models with the memory term (``memory_s`` [s], ``full_history``) and the
         predictor-corrector's largest step (``max_step_s`` [s]).
@@ -124,7 +126,11 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     half = _half_widths(names, x_center, est.scales, problem.t_start, start_spread=options.start_spread,
                         omega0_spread=options.omega0_spread, floors=floors, amplitude=summary.amplitude)
     typical = np.array([max(abs(c), h, floors.get(n, 0.0)) for n, c, h in zip(names, x_center, half)])
-    return Setup(problem=replace(problem, typical=typical), summary=summary,
+    coords = None
+    if options.coordinates == "decorrelated":
+        coords = fit_coordinates(model.param_names, problem.t, problem.omega, omega0_hat=summary.omega0_hat,
+                                 center=center)
+    return Setup(problem=replace(problem, typical=typical, coordinates=coords), summary=summary,
                  estimates={**est.values, "theta0": summary.theta_init - theta_off_hat, "omega0": summary.omega_init},
                  center=x_center, half_widths=half,
                  first_window_end=summary.first_window_end(problem.t_start, FIRST_WINDOW_HALF_SWINGS))

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from pendtrack.config import FitConfig, ModelsConfig
+from pendtrack.config import FIT_COORDINATES, FitConfig, ModelsConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.estimate import estimate
@@ -46,11 +46,14 @@ from pendtrack.fitting.uncertainty import assess
 
 
 def check_options(options: FitConfig, *, source: str = "the data") -> None:
-    """FitError if ``options`` cannot run a fit (unknown cost or Jacobian, no start, 5/4 rule or hopeless ratio below 1)."""
+    """FitError if ``options`` cannot run a fit (unknown cost, Jacobian or coordinates, no start, 5/4 rule or hopeless ratio below 1)."""
     if options.cost not in COSTS:
         raise FitError(f"unknown cost '{options.cost}' (use {' or '.join(COSTS)})", path=source)
     if options.jacobian not in JACOBIANS:
         raise FitError(f"unknown jacobian '{options.jacobian}' (use {' or '.join(JACOBIANS)})", path=source)
+    if options.coordinates not in FIT_COORDINATES:
+        raise FitError(f"unknown coordinates '{options.coordinates}' (use {' or '.join(FIT_COORDINATES)})",
+                       path=source)
     if options.n_starts < 1:
         raise FitError(f"n_starts must be >= 1, got {options.n_starts}", path=source)
     if options.accept_ratio < 1:

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pendtrack.fitting.coordinates import BoundCoordinates
 from pendtrack.fitting.lm import levenberg_marquardt, sumsq
 from pendtrack.fitting.problem import FitProblem
 from pendtrack.parallel import process_pool, worker_count
@@ -194,8 +195,9 @@ class _Tracker:
     """
 
     def __init__(self, problem: FitProblem, budget: int, *, central: bool = False,
-                 deadline: float = math.inf) -> None:
+                 deadline: float = math.inf, coords: BoundCoordinates | None = None) -> None:
         self.problem = problem
+        self.coords = coords  # the steps' coordinates y (None: the parameters x themselves)
         self.budget = budget
         self.central = central
         self.deadline = deadline  # time.monotonic() [s] after which it stops (after its first evaluation)
@@ -206,7 +208,11 @@ class _Tracker:
         self.best_cost = np.inf
         self.best_at_80 = np.inf  # best cost after 80 % of the budget
 
-    def __call__(self, x: np.ndarray) -> np.ndarray:
+    def __call__(self, y: np.ndarray) -> np.ndarray:
+        """The residuals at the step point ``y`` (best point kept in the parameters ``x``)."""
+        return self._residuals(y if self.coords is None else self.coords.to_natural(y))
+
+    def _residuals(self, x: np.ndarray) -> np.ndarray:
         if self.calls >= self.budget:
             raise _Budget
         if self.calls and past(self.deadline):
@@ -241,7 +247,13 @@ class _Tracker:
         """The last 20 % of the budget lowered the cost by less than ``SETTLED`` relative."""
         return self.best_at_80 - self.best_cost <= SETTLED * self.best_cost
 
-    def jac(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
+    def jac(self, y: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        """The Jacobian by the step coordinates ``y`` at ``y`` (residuals ``r0`` there)."""
+        if self.coords is None:
+            return self._jac(y, r0)
+        return self.coords.jacobian(self._jac(self.coords.to_natural(y), r0), y)
+
+    def _jac(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
         if self.problem.uses_sensitivities():
             jac = self._sensitivity_jac(x)
             if jac is not None:
@@ -256,13 +268,13 @@ class _Tracker:
                 xp, xm = x.copy(), x.copy()
                 xp[j] += hp
                 xm[j] -= hm
-                np.subtract(self(xp), self(xm), out=jac[:, j])
+                np.subtract(self._residuals(xp), self._residuals(xm), out=jac[:, j])
                 jac[:, j] /= hp + hm
                 continue
             h = steps[j] if x[j] + steps[j] <= hi[j] else -min(steps[j], x[j] - lo[j])
             xp = x.copy()
             xp[j] += h
-            np.subtract(self(xp), r0, out=jac[:, j])
+            np.subtract(self._residuals(xp), r0, out=jac[:, j])
             jac[:, j] /= h
         return jac
 
@@ -315,9 +327,15 @@ def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | No
     p = x.size
     tol = FINAL_TOL if last else RUNG_TOL
     iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
-    tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline)
+    coords = sub.coordinates.bind(sub.names) if sub.coordinates is not None else None
+    tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline,
+                       coords=coords)
+    if coords is None:
+        y, lower, upper = x, sub.lower, sub.upper
+    else:
+        y, (lower, upper) = coords.to_internal(x), coords.bounds(sub.lower, sub.upper)
     try:
-        res = levenberg_marquardt(tracker, tracker.jac, x, lower=sub.lower, upper=sub.upper,
+        res = levenberg_marquardt(tracker, tracker.jac, y, lower=lower, upper=upper,
                                   ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
         status, message = res.status, res.message
     except _Budget:

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import PendtrackError
+from pendtrack.fitting.coordinates import Coordinates
 from pendtrack.fitting.cost import Observation, residual_vector
 
 STATE_NAMES = ("theta0", "omega0")
@@ -137,6 +138,10 @@ class FitProblem:
     steer_phase : float
         The same for the sensitivities that *steer* the Levenberg-Marquardt iterations
         (:meth:`jacobian_sensitivity` with ``steer=True``; ``[fit] steer_phase``); 0 = as :meth:`simulate`.
+    coordinates : Coordinates or None
+        The coordinates the Levenberg-Marquardt steps take (``[fit] coordinates``;
+        :mod:`pendtrack.fitting.coordinates`); None: the parameters themselves. Never changes
+        :meth:`residuals` or any value outside a window's fit.
     """
 
     model: Any
@@ -161,6 +166,7 @@ class FitProblem:
     jacobian_method: str = "fd"
     substep_phase: float = 0.0
     steer_phase: float = 0.0
+    coordinates: Coordinates | None = None
 
     # ---- names -------------------------------------------------------------------------
     @cached_property  # asked for on every evaluation (the fields are frozen)
