@@ -128,3 +128,23 @@ def test_the_memory_models_whole_fit_ends_at_the_same_minimum_in_either_coordina
     for name in m.param_names:
         se = b.params[name].stderr
         assert abs(b.params[name].value - a.params[name].value) < 0.1 * se, name
+
+
+def test_an_exponent_far_outside_the_data_maps_without_overflow():
+    # a Levenberg-Marquardt step may try p = 1e4: the maps stay finite (the fit's penalty residuals
+    # then turn it back) instead of raising OverflowError in a worker
+    prob, x = _problem("classic", seconds=5.0)
+    bound = prob.coordinates.bind(prob.names)
+    i = list(prob.names).index("p")
+    for p in (1e4, 1e-6):
+        xs = x.copy()
+        xs[i] = p
+        y = bound.to_internal(xs)
+        assert np.all(np.isfinite(y))
+        assert np.all(np.isfinite(bound.to_natural(y)))
+        jac = bound.jacobian(np.ones((3, x.size)), y)
+        assert np.all(np.isfinite(jac))
+    ys = bound.to_internal(x)
+    ys[i] = 1e5  # a step in y far outside
+    assert np.all(np.isfinite(bound.to_natural(ys)))
+    assert np.all(np.isfinite(prob.residuals(bound.to_natural(ys))))

@@ -45,6 +45,8 @@ P_HAT_DEFAULT = 1.5  # exponent of the weights when the start centre has no fini
 #: ln of the swing's angular frequency in the memory term's time t* = 2 Omega0 t: Omega0/(2 Omega0)
 LOG_MEMORY_FREQUENCY = math.log(0.5)
 
+EXP_LIMIT = 700.0  # |argument| of the references' exponentials: beyond it a value is inf or 0 in float64
+
 Scaled = tuple[str, tuple[tuple[str, float], ...]]  # amplitude name, ((exponent name, ln reference), ...)
 
 
@@ -99,7 +101,7 @@ class BoundCoordinates:
         """``y`` of a point ``x`` (a copy)."""
         y = np.array(x, dtype=float)
         for i, exps in self.scaled:
-            y[i] = x[i] * math.exp(sum(x[j] * lg for j, lg in exps))
+            y[i] = x[i] * _exp(sum(x[j] * lg for j, lg in exps))
         if self.tv is not None:
             i, j, t_ref = self.tv
             kappa = 1.0 / (t_ref - x[j])
@@ -110,7 +112,7 @@ class BoundCoordinates:
         """``x`` of a point ``y`` (a copy)."""
         x = np.array(y, dtype=float)
         for i, exps in self.scaled:
-            x[i] = y[i] * math.exp(-sum(y[j] * lg for j, lg in exps))
+            x[i] = y[i] * _exp(-sum(y[j] * lg for j, lg in exps))
         if self.tv is not None:
             i, j, t_ref = self.tv
             x[i], x[j] = y[i] / y[j], t_ref - 1.0 / y[j]
@@ -121,7 +123,7 @@ class BoundCoordinates:
         contiguous; ``jac_x`` is overwritten)."""
         jac = np.asfortranarray(jac_x)
         for i, exps in self.scaled:
-            scale = math.exp(-sum(y[j] * lg for j, lg in exps))  # d x_i/d y_i; d x_i/d y_j = -x_i l_j
+            scale = _exp(-sum(y[j] * lg for j, lg in exps))  # d x_i/d y_i; d x_i/d y_j = -x_i l_j
             amp = y[i] * scale
             for j, lg in exps:
                 jac[:, j] -= (amp * lg) * jac[:, i]
@@ -150,6 +152,13 @@ class BoundCoordinates:
                 raise ValueError("the time-varying damping's coordinates need C4 in [0, inf) and a finite t0 < t_ref")
             lo[j], hi[j] = 1.0 / (t_ref - lower[j]), 1.0 / (t_ref - upper[j])
         return lo, hi
+
+
+def _exp(v: float) -> float:
+    """``exp(v)`` with ``v`` clipped to +-:data:`EXP_LIMIT`: an exponent far outside the data's range (a
+    step to p = 1e4) maps to a huge but finite value, whose residuals are the fit's penalty, instead of
+    an OverflowError."""
+    return math.exp(min(max(v, -EXP_LIMIT), EXP_LIMIT))
 
 
 def _log_reference(x: np.ndarray, power: float) -> float | None:
