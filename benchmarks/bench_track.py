@@ -2,7 +2,7 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_track.py [VIDEO ...] [--repeats N]
+    .venv/bin/python benchmarks/bench_track.py [VIDEO ...] [--repeats N | --bracketed N]
 
 VIDEO defaults to two cases, each measured and printed on its own:
 
@@ -24,6 +24,11 @@ Each repetition measures, back to back on the same file:
                      ``DECODE_PREFETCH_MB`` (256 MiB: 86 frames at 1080p, 194 at 720p);
                      decoding overlaps tracking on a second core;
 * ``track AUTO``  -- the stage with FFmpeg threads, to compare with ``decode AUTO``.
+
+``--bracketed N`` measures only the stage as it runs: N stage runs, each between two decode-only
+runs of the same file, each ratio over the mean of the two (this machine's speed drifts by
++-20 % within a minute; bracketing cancels a drift to first order). Its median over ~24 runs
+is the steadiest reading of the ratio here.
 
 Rates are frames per second of wall-clock time (median over repetitions) and, for the
 single-threaded variants, per second of process CPU time, which is steadier on a shared
@@ -173,10 +178,40 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("video", nargs="*", help="videos to measure (default: the 720p/120 and 1080p/60 cases)")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--bracketed", type=int, default=0, metavar="N",
+                    help="instead: N runs of the stage as it runs (decoder thread), each between two decode-only "
+                         "runs of the same file; the ratio is its rate over their mean (see bracketed())")
     args = ap.parse_args(argv)
     videos = [Path(v) for v in args.video] or [ROOT / "sample_videos" / "12na1.mp4", video_1080p60()]
     for video in videos:
-        measure(video, args.repeats)
+        if args.bracketed:
+            bracketed(video, args.bracketed)
+        else:
+            measure(video, args.repeats)
+
+
+def bracketed(video: Path, runs: int) -> None:
+    """``track / decode-only`` of the stage as it runs, each stage run against the mean rate of the
+    decode-only runs just before and just after it (a drift of the machine's speed during the pair
+    cancels to first order). Prints the median over ``runs`` and the share of runs at or above 0.8."""
+    import pendtrack.stages.track as st
+
+    ratios = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        track(video, out, threads=False, prefetch=st.DECODE_PREFETCH)  # warm-up: imports, file cache
+        n, w, _ = decode_only(video, threads=False)
+        before = n / w
+        for _ in range(runs):
+            n, w, _ = track(video, out, threads=False, prefetch=st.DECODE_PREFETCH)
+            rate = n / w
+            n, w, _ = decode_only(video, threads=False)
+            after = n / w
+            ratios.append(rate / ((before + after) / 2))
+            before = after
+    print(f"{video.name}: stage / decode-only (bracketed), {runs} runs, load average {os.getloadavg()[0]:.2f} "
+          f"at the end: median {statistics.median(ratios):.2f} ({min(ratios):.2f}..{max(ratios):.2f}), "
+          f"{sum(r >= 0.8 for r in ratios) / runs:.0%} of runs >= 0.8", flush=True)
 
 
 def measure(video: Path, repeats: int) -> None:
