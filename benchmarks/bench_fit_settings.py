@@ -3,15 +3,14 @@
 Usage::
 
     .venv/bin/python benchmarks/bench_fit_settings.py                       # defaults vs the exact integrator
-    .venv/bin/python benchmarks/bench_fit_settings.py --reference substep_phase=0 steer_phase=0 \\
-        --models classic opa
+    .venv/bin/python benchmarks/bench_fit_settings.py --reference rung_phase=0 --models classic opa
 
 The record is ``bench_run.py``'s: a 60-s, 720p/120 fps render of the paper's setup (rendered once
 into the same cache), tracked, turned into angles and kinematics with the defaults. Each model is
 then fitted twice, 150 starts and no time budget (every start runs, so both do the same search):
 with the defaults, and with the defaults overridden by ``--reference`` (default: the simulation's
-own RK4 sub-steps for the residuals and for the Jacobian that steers the iterations, i.e. the fits
-before ``[fit] substep_phase`` and ``steer_phase``). Printed per model: each fit's runtime, and
+own RK4 sub-steps for the residuals, the Jacobian that steers the iterations and the ladder's shorter
+windows, i.e. the fits before ``[fit] substep_phase``, ``steer_phase`` and ``rung_phase``). Printed per model: each fit's runtime, and
 what issue #16 asks to stay the same -- Xi^2_min (relative difference), every value's difference
 in reported standard errors, ``n_accepted``, and ``u_paper`` in standard errors.
 """
@@ -62,7 +61,7 @@ def _value(text: str) -> object:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--reference", nargs="*", default=["substep_phase=0", "steer_phase=0"],
+    ap.add_argument("--reference", nargs="*", default=["substep_phase=0", "steer_phase=0", "rung_phase=0"],
                     help="[fit] key=value overrides of the reference fits")
     ap.add_argument("--models", nargs="+", default=None, help="default: [fit] models")
     ap.add_argument("--seconds", type=float, default=60.0)

@@ -21,7 +21,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting import FitResult, Observation, ParamEstimate, build_problem, cross_model_relations, fit_model
 from pendtrack.fitting.cost import residual_vector
 from pendtrack.fitting.fitter import check_options
-from pendtrack.fitting.ladder import LadderRules, run_ladder
+from pendtrack.fitting.ladder import LadderRules, run_ladder, search_pool
 from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
 from pendtrack.fitting.search import hopeless_ratio
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
@@ -196,6 +196,29 @@ def test_starts_in_worker_processes_equal_serial_run():
         alone = local_fit(prob, starts[k], ends)  # without rules, each start is local_fit's path
         np.testing.assert_array_equal(a.x, alone.x)
         assert (a.cost, a.nfev, a.message) == (alone.cost, alone.nfev, alone.message)
+
+
+def test_a_shared_pool_runs_one_problem_after_another_as_a_single_process_does():
+    # a fit stage's models share one pool: each worker must drop the problem it holds for the next one's
+    half = np.array([0.05, 0.02, 0.02, 0.1])
+    rules = LadderRules(hopeless_ratio=30.0, merge_tol=1e-5, scale=half)
+    problems = []
+    for seconds in (8.0, 6.0):
+        t, th, om, _ = toy_data(seconds=seconds)
+        prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)
+        starts = draw_starts(np.array([5.0, 0.05, 0.8, 0.0]), half, prob.lower, prob.upper, 5, seed=2)
+        problems.append((prob, starts, (3.0, prob.t_end)))
+    assert search_pool(1) is None  # one process: the searches run inline
+    pool = search_pool(2)
+    try:
+        shared = [run_ladder(p, s, e, rules=rules, pool=pool) for p, s, e in problems + problems[:1]]
+    finally:
+        pool.shutdown()
+    for (p, s, e), got in zip(problems + problems[:1], shared):
+        alone = run_ladder(p, s, e, rules=rules, workers=1)
+        assert [(o.cost, o.nfev, o.message) for o in got] == [(o.cost, o.nfev, o.message) for o in alone]
+        for a, b in zip(got, alone):
+            np.testing.assert_array_equal(a.x, b.x)
 
 
 def test_ladder_rules_stop_hopeless_starts_and_merge_duplicates_alike_in_any_number_of_workers():

@@ -315,3 +315,32 @@ def test_the_steering_jacobian_is_close_and_leads_to_the_same_minimum(name):
     cov, _ = hac_covariance(prob.jacobian(a.x, method="fd", central=True), prob.residuals(a.x), prob.n)
     se = np.sqrt(np.diag(cov))
     assert np.all(np.abs(b.x - a.x) < 1e-3 * se), (b.x - a.x) / se
+
+
+@pytest.mark.parametrize("name", ["classic", "opa"])
+def test_the_ladders_shorter_windows_integrate_coarser_and_the_start_ends_where_it_did(name):
+    from dataclasses import replace
+
+    from pendtrack.fitting.multistart import window_ladder, windows
+
+    prob, x = _problem(name, seconds=20.0, seed=5)
+    prob = replace(prob, substep_phase=FitConfig().substep_phase)  # the fits' 2 sub-steps at 120 fps
+    coarse = replace(prob, rung_phase=FitConfig().rung_phase)  # 1 on the shorter windows
+    ends = window_ladder(prob.t_start, prob.t_end, prob.t_start + 3.0)
+    assert len(ends) >= 3
+    for (sub, last), (fine, _) in zip(windows(coarse, ends), windows(prob, ends)):
+        assert sub.substep_phase == (prob.substep_phase if last else coarse.rung_phase)
+        assert sub.n == fine.n
+        if not last:  # RK4 at Omega0 h = 0.04 rad, 1 sub-step: another integration, its residuals within
+            # ~1e-6 of their size here (measured 3e-9 to 1.5e-8 against 5e-3 to 1.6e-2); bar 100x that
+            d = np.abs(sub.residuals(x) - fine.residuals(x)).max()
+            assert 0 < d < 1e-4 * np.abs(fine.residuals(x)).max(), d
+    a = local_fit(prob, x, ends)
+    b = local_fit(coarse, x, ends)
+    assert a.success and b.success
+    # the whole window's residuals alone decide where a start ends: the same cost (1e-9 relative, below
+    # FINAL_TOL's 1e-8) and values within 1e-3 standard errors
+    assert b.cost == pytest.approx(a.cost, rel=1e-9)
+    cov, _ = hac_covariance(prob.jacobian(a.x, method="fd", central=True), prob.residuals(a.x), prob.n)
+    se = np.sqrt(np.diag(cov))
+    assert np.all(np.abs(b.x - a.x) < 1e-3 * se), (b.x - a.x) / se

@@ -100,7 +100,8 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
                             omega0_hat=summary.omega0_hat, observation=record.observation, memory_s=memory_s,
                             full_history=full_history, simulator=simulator, method=method, source=record.source,
                             max_step_s=model_options.max_step_s, jacobian_method=options.jacobian,
-                            substep_phase=options.substep_phase, steer_phase=options.steer_phase)
+                            substep_phase=options.substep_phase, steer_phase=options.steer_phase,
+                            rung_phase=options.rung_phase)
     n_fit = len(problem.all_names) - len(fixed or {})
     if problem.n < max(3 * n_fit, 60):
         raise FitError(f"too few usable samples to fit model '{model.name}' ({problem.n})", path=record.source)

@@ -43,6 +43,7 @@ from pendtrack.fitting.refine import refine
 from pendtrack.fitting.result import FitResult, build_result
 from pendtrack.fitting.search import search
 from pendtrack.fitting.uncertainty import assess
+from pendtrack.parallel import ProcessPool
 
 
 def check_options(options: FitConfig, *, source: str = "the data") -> None:
@@ -70,7 +71,8 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
               fixed: Mapping[str, float] | None = None, initial: Mapping[str, float] | None = None,
               extra_starts: Sequence[Mapping[str, float]] = (), seed: int | None = None,
               workers: int | None = None, simulator: Simulator | None = None, method: str = "auto",
-              on_progress: Callable[[int], None] | None = None, source: str = "the data") -> FitResult:
+              on_progress: Callable[[int], None] | None = None, source: str = "the data",
+              pool: ProcessPool | None = None) -> FitResult:
     """Fit ``model`` to a record by output error, with the paper's uncertainties and better ones.
 
     Parameters
@@ -117,6 +119,10 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         Called with 1 after each start (and each bootstrap refit).
     source : str
         Name of the data in error messages.
+    pool : ProcessPool, optional
+        Worker processes for the starts, kept by the caller across fits
+        (:func:`pendtrack.fitting.ladder.search_pool`: a fit stage's models start them once);
+        default: ``workers`` processes started for this fit.
 
     Returns
     -------
@@ -139,7 +145,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                      simulator=simulator, method=method)
     deadlines = Deadlines.start(options.time_budget_s, options.time_reserve, now=t_wall)
     found = search(setup, options=options, seed=seed, workers=workers, extra_starts=extra_starts,
-                   on_progress=on_progress, deadline=deadlines.search)
+                   on_progress=on_progress, deadline=deadlines.search, pool=pool)
     best = refine(setup.problem, found.best, options=options, deadline=deadlines.refine())
     unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress,
                  deadline=deadlines.end())

@@ -31,6 +31,8 @@ starts that began.
 from __future__ import annotations
 
 import math
+import pickle
+import uuid
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass, field
@@ -40,7 +42,7 @@ import numpy as np
 from pendtrack.fitting.multistart import (TIME_BUDGET, StartOutcome, WindowFit, _warm, finish, fit_window,
                                           inside_bounds, past, windows)
 from pendtrack.fitting.problem import FitProblem
-from pendtrack.parallel import process_pool, worker_count
+from pendtrack.parallel import ProcessPool, process_pool, worker_count
 
 
 def coincide(a: np.ndarray, b: np.ndarray, scale: np.ndarray, tol: float) -> bool:
@@ -89,18 +91,61 @@ HOPELESS_FROM = 0.25  # the hopeless rule judges windows of at least this share 
 # the starts that end accepted still spread widely (bench record: up to 23x the lowest cost on OPA's first
 # window, 5.7 s); from 23 s on, at most 6.7x (classic) and 1.7x (OPA) on that window, 11x and 7.9x on the next
 
-_W: dict[str, object] = {}
+_W: dict[str, object] = {}  # in a worker: the token of the problem it holds and that problem's windows
 
 
-def _init(problem: FitProblem, ends: tuple[float, ...], x: np.ndarray) -> None:
-    """Worker initializer: the problem's windows, held for every task; kernels warmed at ``x``."""
-    _W["windows"] = windows(problem, ends)
+def _hold(token: str, problem: FitProblem, ends: tuple[float, ...]) -> None:
+    """Hold ``problem``'s windows under ``token`` in this process (a worker, or this one inline)."""
+    _W.clear()
+    _W.update(token=token, windows=windows(problem, ends))
+
+
+def _init(token: str, problem: FitProblem, ends: tuple[float, ...], x: np.ndarray) -> None:
+    """Initializer of a search's own pool: the problem's windows, held for every task; kernels warmed at ``x``."""
+    _hold(token, problem, ends)
     _warm(problem, x)
 
 
-def _window_task(k: int, x: np.ndarray, max_nfev: int | None, deadline: float, spent: int) -> WindowFit:
+def _load_kernels() -> None:
+    """Initializer of a shared pool (:func:`search_pool`): the numba kernels loaded before any problem arrives."""
+    from pendtrack.models.kernels import pc_kernel_nb, rk_kernel_nb, rk_sens_kernel_nb
+
+    rk_kernel_nb()
+    pc_kernel_nb()
+    rk_sens_kernel_nb()
+
+
+def _ready() -> None:
+    """A no-op task: submitting one per worker makes a pool start them all now."""
+
+
+def _window_task(token: str, held: bytes | None, k: int, x: np.ndarray, max_nfev: int | None, deadline: float,
+                 spent: int) -> WindowFit:
+    """Window ``k`` of the problem ``token`` from ``x``; ``held`` = the pickled ``(problem, ends)``, taken up by a
+    worker that holds another problem (a shared pool), None where every worker holds it already."""
+    if _W.get("token") != token:
+        if held is None:
+            raise RuntimeError("a ladder task reached a worker without its problem")  # programming error
+        _hold(token, *pickle.loads(held))
     sub, last = _W["windows"][k]  # type: ignore[index]
     return fit_window(sub, x, last=last, max_nfev=max_nfev, deadline=deadline, spent=spent)
+
+
+def search_pool(workers: int) -> ProcessPool | None:
+    """Worker processes for several searches in a row (a fit stage's models), started now.
+
+    Each worker loads the numba kernels as it starts, while the caller goes on (the first model's
+    estimates); a search handed the pool (``run_ladder(pool=...)``) then sends its problem along with
+    its tasks instead of starting processes of its own (~2 s each on this machine). None where
+    ``workers`` resolves to one process (the searches then run inline). The caller shuts it down.
+    """
+    n = worker_count(workers)
+    if n < 2:
+        return None
+    pool = process_pool(n, initializer=_load_kernels)
+    for _ in range(n):
+        pool.submit(_ready)
+    return pool
 
 
 class _Inline:
@@ -114,7 +159,8 @@ class _Inline:
 
 def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *,
                rules: LadderRules = LadderRules(), workers: int = 0, max_nfev: int | None = None,
-               on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> list[StartOutcome]:
+               on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+               pool: ProcessPool | None = None) -> list[StartOutcome]:
     """Every start over the growing-window ladder, window by window, with :class:`LadderRules`.
 
     Parameters
@@ -136,6 +182,9 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
     deadline : float
         ``time.monotonic()`` [s]: no task begins after it, running ones stop where they are, and
         every start that began ends where it is; start 0 always runs its first window.
+    pool : ProcessPool, optional
+        Worker processes to use (:func:`search_pool`, kept by the caller across searches) instead of
+        ``workers`` new ones; its workers are sent the problem with the tasks.
 
     Returns
     -------
@@ -152,10 +201,18 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
     began: list[_Start] = []
     waiting: list[_Start] = []  # ran a shorter window, fate not decided yet
     ready: list[_Start] = []  # to run their next window
-    n_proc = worker_count(workers, len(todo))
-    pool = process_pool(n_proc, initializer=_init, initargs=(problem, ends, todo[0].x)) if n_proc > 1 else None
+    token = uuid.uuid4().hex
+    held: bytes | None = None
+    own = None
+    if pool is not None:
+        n_proc = min(pool.workers, len(todo))
+        held = pickle.dumps((problem, ends), protocol=pickle.HIGHEST_PROTOCOL)
+    else:
+        n_proc = worker_count(workers, len(todo))
+        if n_proc > 1:
+            own = pool = process_pool(n_proc, initializer=_init, initargs=(token, problem, ends, todo[0].x))
     if pool is None:
-        _W["windows"] = wins
+        _hold(token, problem, ends)
     executor = pool if pool is not None else _Inline()
     in_flight: dict[Future, _Start] = {}
 
@@ -197,7 +254,7 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
             ready.append(st)
 
     def submit(st: _Start) -> None:
-        in_flight[executor.submit(_window_task, st.next, st.x, max_nfev, deadline, st.calls)] = st
+        in_flight[executor.submit(_window_task, token, held, st.next, st.x, max_nfev, deadline, st.calls)] = st
 
     def collect(fut: Future) -> None:
         st = in_flight.pop(fut)
@@ -238,8 +295,11 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
             for fut in sorted(done, key=lambda f: in_flight[f].index):
                 collect(fut)
     finally:
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+        if own is not None:
+            own.shutdown(wait=True, cancel_futures=True)
+        else:  # a shared pool outlives this search (an error left tasks queued): drop them
+            for fut in in_flight:
+                fut.cancel()
     for st in began:  # the deadline: starts between two windows end where they are
         if not st.ended and st.fit is not None:
             out = finish(problem, st.index, st.x0, st.fit, st.calls, whole=False,

@@ -356,7 +356,7 @@ def windows(problem: FitProblem, window_ends: Sequence[float]) -> list[tuple[Fit
     out = []
     for k, end in enumerate(window_ends):
         last = k == len(window_ends) - 1
-        sub = problem if last else problem.restrict(end)
+        sub = problem if last else problem.rung(end)
         if sub.n >= 3 * problem.lower.size:
             out.append((sub, last))
     if not out:

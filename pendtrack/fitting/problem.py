@@ -138,6 +138,8 @@ class FitProblem:
     steer_phase : float
         The same for the sensitivities that *steer* the Levenberg-Marquardt iterations
         (:meth:`jacobian_sensitivity` with ``steer=True``; ``[fit] steer_phase``); 0 = as :meth:`simulate`.
+    rung_phase : float
+        The ``substep_phase`` of the ladder's shorter windows (:meth:`rung`; ``[fit] rung_phase``); 0 = the same.
     coordinates : Coordinates or None
         The coordinates the Levenberg-Marquardt steps take (``[fit] coordinates``;
         :mod:`pendtrack.fitting.coordinates`); None: the parameters themselves. Never changes
@@ -166,6 +168,7 @@ class FitProblem:
     jacobian_method: str = "fd"
     substep_phase: float = 0.0
     steer_phase: float = 0.0
+    rung_phase: float = 0.0
     coordinates: Coordinates | None = None
 
     # ---- names -------------------------------------------------------------------------
@@ -490,6 +493,14 @@ class FitProblem:
             return self
         return replace(self, n_grid=n_grid, index=self.index[keep], theta=self.theta[keep],
                        omega=self.omega[keep])
+
+    def rung(self, t_end: float) -> "FitProblem":
+        """The problem on the shorter window ``[t_start, t_end]`` of a start's ladder: :meth:`restrict`,
+        its residuals integrated with :attr:`rung_phase`'s sub-steps (they only carry a start onwards)."""
+        sub = self.restrict(t_end)
+        if self.rung_phase > 0 and self.rung_phase != sub.substep_phase:
+            sub = replace(sub, substep_phase=self.rung_phase)
+        return sub
 
     def with_fixed(self, fixed: Mapping[str, float]) -> "FitProblem":
         """The same problem with some parameters held at given values."""

@@ -139,7 +139,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                   observation: Observation | None = None, memory_s: float = MEMORY_S,
                   full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
                   source: str = "the data", max_step_s: float | None = None, jacobian_method: str = "fd",
-                  substep_phase: float = 0.0, steer_phase: float = 0.0) -> FitProblem:
+                  substep_phase: float = 0.0, steer_phase: float = 0.0, rung_phase: float = 0.0) -> FitProblem:
     """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
 
     Parameters
@@ -158,8 +158,9 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
         As in :func:`pendtrack.fitting.fit_model`.
     jacobian_method : {"fd", "sensitivity"}
         :attr:`FitProblem.jacobian_method` (``[fit] jacobian``; the estimate step passes the options' value).
-    substep_phase, steer_phase : float
-        :attr:`FitProblem.substep_phase`, :attr:`FitProblem.steer_phase` (``[fit]`` keys of those names) [rad].
+    substep_phase, steer_phase, rung_phase : float
+        :attr:`FitProblem.substep_phase`, :attr:`FitProblem.steer_phase`, :attr:`FitProblem.rung_phase`
+        (``[fit]`` keys of those names) [rad].
     """
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
@@ -181,7 +182,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                       omega_scale=1.0 / (2.0 * omega0_hat), observation=obs, memory_s=float(memory_s),
                       method=method, lower=lower, upper=upper, simulator=simulator, full_history=full_history,
                       max_step_s=max_step_s, jacobian_method=jacobian_method, substep_phase=float(substep_phase),
-                      steer_phase=float(steer_phase))
+                      steer_phase=float(steer_phase), rung_phase=float(rung_phase))
 
 
 def uniform_series(problem: FitProblem, t: np.ndarray, series: list[np.ndarray],

@@ -21,6 +21,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import Setup
 from pendtrack.fitting.ladder import LadderRules, run_ladder
 from pendtrack.fitting.multistart import TIME_BUDGET, StartOutcome, draw_starts, inside_bounds, window_ladder
+from pendtrack.parallel import ProcessPool
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +68,8 @@ def hopeless_ratio(model: Any, options: FitConfig) -> float:
 
 def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
            extra_starts: Sequence[Mapping[str, float]] = (),
-           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> Search:
+           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+           pool: ProcessPool | None = None) -> Search:
     """Multi-start growing-window least squares from the start ranges of ``setup`` (step 2 of a fit).
 
     Parameters
@@ -90,6 +92,9 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     deadline : float
         ``time.monotonic()`` [s] after which no start begins and running ones stop where they
         are (:class:`pendtrack.fitting.multistart.Deadlines`); start 0, the estimate, always runs.
+    pool : ProcessPool, optional
+        Worker processes kept across searches (:func:`pendtrack.fitting.ladder.search_pool`); used
+        instead of ``workers`` new ones.
     """
     problem = setup.problem
     names = problem.names
@@ -106,7 +111,7 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
             else (problem.t_end,))
     rules = LadderRules(hopeless_ratio=hopeless_ratio(problem.model, options), merge_tol=options.merge_tol, scale=setup.half_widths)
     outcomes = run_ladder(problem, starts, ends, rules=rules, workers=workers, max_nfev=options.start_budget,
-                          on_progress=on_progress, deadline=deadline)
+                          on_progress=on_progress, deadline=deadline, pool=pool)
     xs = np.array([o.x for o in outcomes])
     costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])
     stopped = TIME_BUDGET if len(outcomes) < len(starts) or any(o.timed_out for o in outcomes) else ""

@@ -178,6 +178,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         Too few samples, none usable, no oscillation.
     """
     from pendtrack.fitting import check_record, cross_model_relations, fit_model, predict
+    from pendtrack.fitting.ladder import search_pool
     from pendtrack.fitting.result import _num
     from pendtrack.models import compose, get_model
 
@@ -215,12 +216,19 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     obs = _observation(art)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=str(kinematics))  # fail before any progress bar
     results = {}
-    for name in names:
-        model = model_objs[name]
-        with progress_bar(config.fit.n_starts, f"fit {name}", enabled=progress) as advance:
-            results[name] = fit_model(model, t, theta, omega, options=config.fit, model_options=config.models,
-                                      alpha=alpha, ok=ok, observation=obs, on_progress=advance,
-                                      source=str(kinematics))
+    # the models' searches share one set of worker processes, started now (their imports and kernels load
+    # while the first model's estimates run) rather than one set per model
+    workers = search_pool(config.fit.workers) if len(names) > 1 else None
+    try:
+        for name in names:
+            model = model_objs[name]
+            with progress_bar(config.fit.n_starts, f"fit {name}", enabled=progress) as advance:
+                results[name] = fit_model(model, t, theta, omega, options=config.fit, model_options=config.models,
+                                          alpha=alpha, ok=ok, observation=obs, on_progress=advance,
+                                          source=str(kinematics), pool=workers)
+    finally:
+        if workers is not None:
+            workers.shutdown(wait=True, cancel_futures=True)
 
     # "model" is the model asked for (file names, batch columns and the report key on it), "fitted_model"
     # the one fitted (e.g. "classic+offset")
