@@ -113,6 +113,13 @@ class FitConfig:
     bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
     start_budget: int = 30  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
     ladder: bool = True  # each start fits a growing window (three periods, doubled up to the record): no phase slips
+    # each window of the ladder this many times as long as the one before (models without memory: their
+    # starts converge on the shorter windows, and many merge there)
+    ladder_growth: float = 2.0
+    # the same for the models with memory, whose shorter windows do not pin the memory (no start merges): the
+    # 60-s bench record's fractional fit, 150 starts, took 34 % less CPU with 4 than with 2, same minimum
+    # (Xi^2 within 4e-10 before the refine step), 132 starts accepted instead of 135 (benchmarks/bench_fit_settings.py)
+    ladder_growth_memory: float = 4.0
     # a start of a model without memory whose cost on a shorter window of the ladder (at least 1/4 of the
     # record) exceeds this many times the lowest any start up to it reached there stops there; 0 = never.
     # 60-s bench record: the starts that ended accepted were at most 11x (classic) and 7.9x (OPA) the lowest
@@ -366,6 +373,8 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.seed": (_ge(0),),
     "fit.bootstrap": (_ge(0),),
     "fit.start_budget": (_ge(1),),
+    "fit.ladder_growth": (_gt(1),),
+    "fit.ladder_growth_memory": (_gt(1),),
     "fit.hopeless_ratio": (_ge(0),),
     "fit.hopeless_ratio_memory": (_ge(0),),
     "fit.merge_tol": (_ge(0),),

@@ -23,7 +23,7 @@ from pendtrack.fitting.cost import residual_vector
 from pendtrack.fitting.fitter import check_options
 from pendtrack.fitting.ladder import LadderRules, run_ladder, search_pool
 from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
-from pendtrack.fitting.search import hopeless_ratio
+from pendtrack.fitting.search import hopeless_ratio, ladder_growth
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
 
@@ -104,6 +104,15 @@ def test_window_ladder_doubles_up_to_the_end():
     ends = window_ladder(0.0, 60.0, 5.0)
     assert ends == (5.0, 10.0, 20.0, 40.0, 60.0)
     assert window_ladder(0.0, 10.0, 20.0) == (10.0,)
+    assert window_ladder(0.0, 60.0, 5.0, growth=4.0) == (5.0, 20.0, 60.0)
+    assert window_ladder(0.0, 60.0, 5.0, growth=11.5) == (5.0, 60.0)  # 57.5 s is within 5 % of the end
+
+
+def test_the_ladder_grows_faster_for_the_models_with_memory_by_their_own_key():
+    options = FitConfig(ladder_growth=2.0, ladder_growth_memory=4.0)
+    assert ladder_growth(ToyModel(), options) == 2.0
+    assert ladder_growth(ToyModel(has_memory=True), options) == 4.0
+    assert ladder_growth(ToyModel(has_memory=True), FitConfig(ladder_growth_memory=3.0)) == 3.0
 
 
 def test_draw_starts_seeded_inside_bounds_first_is_center():

@@ -131,8 +131,8 @@ class StartOutcome:
     timed_out: bool = False
 
 
-def window_ladder(t_start: float, t_end: float, first_end: float) -> tuple[float, ...]:
-    """Ends of the growing windows: ``first_end``, then doubling lengths, then ``t_end`` [s].
+def window_ladder(t_start: float, t_end: float, first_end: float, *, growth: float = 2.0) -> tuple[float, ...]:
+    """Ends of the growing windows: ``first_end``, then lengths ``growth`` times the last, then ``t_end`` [s].
 
     Parameters
     ----------
@@ -140,12 +140,14 @@ def window_ladder(t_start: float, t_end: float, first_end: float) -> tuple[float
         The whole fit window [s].
     first_end : float
         End of the first window, typically three periods after ``t_start`` [s].
+    growth : float
+        Ratio of each window's length to the one before (> 1; ``[fit] ladder_growth``).
     """
     ends: list[float] = []
     length = first_end - t_start
     while length > 0 and t_start + length < t_start + 0.95 * (t_end - t_start):
         ends.append(t_start + length)
-        length *= 2.0
+        length *= growth
     ends.append(t_end)
     return tuple(ends)
 

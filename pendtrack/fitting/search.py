@@ -66,6 +66,17 @@ def hopeless_ratio(model: Any, options: FitConfig) -> float:
     return options.hopeless_ratio_memory if model.has_memory else options.hopeless_ratio
 
 
+def ladder_growth(model: Any, options: FitConfig) -> float:
+    """The ladder's growth for ``model``: ``ladder_growth_memory`` if it has memory, else ``ladder_growth``.
+
+    The shorter windows pin Omega0 and the phase; a model without memory also converges on them,
+    and its starts that meet there merge (the doubling windows pay for themselves). A model with
+    memory does not converge on them (the memory is not pinned by a short window): its starts
+    only need Omega0 and the phase carried over, which a window four times longer keeps.
+    """
+    return options.ladder_growth_memory if model.has_memory else options.ladder_growth
+
+
 def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
            extra_starts: Sequence[Mapping[str, float]] = (),
            on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
@@ -77,8 +88,8 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     setup : Setup
         From :func:`pendtrack.fitting.estimate.estimate`.
     options : FitConfig
-        Uses ``n_starts``, ``ladder``, ``start_budget``, ``hopeless_ratio`` (or
-        ``hopeless_ratio_memory`` for a model with memory) and ``merge_tol``
+        Uses ``n_starts``, ``ladder``, ``ladder_growth`` (or ``ladder_growth_memory`` for a model with
+        memory), ``start_budget``, ``hopeless_ratio`` (or ``hopeless_ratio_memory``) and ``merge_tol``
         (:class:`pendtrack.fitting.ladder.LadderRules`: which starts end before the whole window).
     seed : int
         Seed of the start draws.
@@ -107,7 +118,8 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
                 raise FitError(f"start value for unknown parameter '{unknown[0]}' of model '{problem.model.name}'")
             rows.append([float(start.get(n, c)) for n, c in zip(names, setup.center)])
         starts = np.vstack((starts, inside_bounds(np.array(rows), problem.lower, problem.upper)))
-    ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end) if options.ladder
+    ends = (window_ladder(problem.t_start, problem.t_end, setup.first_window_end,
+                          growth=ladder_growth(problem.model, options)) if options.ladder
             else (problem.t_end,))
     rules = LadderRules(hopeless_ratio=hopeless_ratio(problem.model, options), merge_tol=options.merge_tol, scale=setup.half_widths)
     outcomes = run_ladder(problem, starts, ends, rules=rules, workers=workers, max_nfev=options.start_budget,
