@@ -23,6 +23,7 @@ from pendtrack.fitting.cost import residual_vector
 from pendtrack.fitting.fitter import check_options
 from pendtrack.fitting.ladder import LadderRules, run_ladder, search_pool
 from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
+from pendtrack.fitting.polish import profile_sigmas
 from pendtrack.fitting.search import hopeless_ratio, ladder_growth
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
@@ -228,6 +229,25 @@ def test_a_shared_pool_runs_one_problem_after_another_as_a_single_process_does()
         assert [(o.cost, o.nfev, o.message) for o in got] == [(o.cost, o.nfev, o.message) for o in alone]
         for a, b in zip(got, alone):
             np.testing.assert_array_equal(a.x, b.x)
+
+
+def test_the_profile_sigmas_sides_run_in_worker_processes_as_in_this_one():
+    t, th, om, _ = toy_data(seconds=8.0)
+    prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)
+    best = local_fit(prob, np.array([5.0, 0.05, 0.8, 0.0]), (3.0, prob.t_end))
+    r, jac = prob.residuals(best.x), prob.jacobian(best.x, central=True)
+    cov, _ = hac_covariance(jac, r, prob.n)
+    naive = np.sqrt(np.diag(naive_covariance(jac, r)))
+    names = list(prob.names[:2])
+    here = profile_sigmas(prob, best.x, best.cost, cov, naive, names)
+    pool = search_pool(2)
+    try:
+        there = profile_sigmas(prob, best.x, best.cost, cov, naive, names, executor=pool)
+    finally:
+        pool.shutdown()
+    assert np.isfinite(here[0][:2]).all() and np.isfinite(here[1][:2]).all()
+    np.testing.assert_array_equal(here[0], there[0])
+    np.testing.assert_array_equal(here[1], there[1])
 
 
 def test_ladder_rules_stop_hopeless_starts_and_merge_duplicates_alike_in_any_number_of_workers():

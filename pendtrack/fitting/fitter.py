@@ -121,8 +121,8 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         Name of the data in error messages.
     pool : ProcessPool, optional
         Worker processes for the starts, kept by the caller across fits
-        (:func:`pendtrack.fitting.ladder.search_pool`: a fit stage's models start them once);
-        default: ``workers`` processes started for this fit.
+        (:func:`pendtrack.fitting.ladder.search_pool`: a fit stage's models start them once), also
+        running the profile sigmas' sides; default: ``workers`` processes started for the search.
 
     Returns
     -------
@@ -148,7 +148,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                    on_progress=on_progress, deadline=deadlines.search, pool=pool)
     best = refine(setup.problem, found.best, options=options, deadline=deadlines.refine())
     unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress,
-                 deadline=deadlines.end())
+                 deadline=deadlines.end(), pool=pool)
     return build_result(setup, found, best, unc, options=options, model_options=model_options, seed=seed,
                         runtime_s=time.monotonic() - t_wall)
 

@@ -14,6 +14,7 @@ already done, and a last free fit starts from the profile minimum.
 from __future__ import annotations
 
 import math
+from concurrent.futures import Executor
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -111,7 +112,8 @@ PROFILE_STEPS = 2  # inner fits per side of each parameter: at +-stderr, then at
 
 
 def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndarray, naive: np.ndarray,
-                   params: list[str], *, deadline: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+                   params: list[str], *, deadline: float = math.inf,
+                   executor: Executor | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Profile-likelihood standard errors below and above the best fit, per parameter.
 
     For parameter j the profile cost ``c_j(v) = min over the others`` is compared with the
@@ -137,6 +139,9 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
         The names to profile (others get NaN).
     deadline : float
         ``time.monotonic()`` [s] after which no inner fit starts: the sigmas not reached stay NaN.
+    executor : Executor, optional
+        Worker processes (a fit stage's search pool) to run the sides in (:func:`profile_side`
+        each); the same sigmas as in this process.
 
     Returns
     -------
@@ -151,6 +156,7 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
     stderr = np.sqrt(np.abs(np.diag(cov)))
     low = np.full(len(names), np.nan)
     high = np.full(len(names), np.nan)
+    sides = []
     for name in params:
         if name not in names:
             continue
@@ -158,31 +164,49 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
         if not (np.isfinite(stderr[j]) and np.isfinite(naive[j]) and stderr[j] > 0 and naive[j] > 0):
             continue
         target = math.sqrt(s2) * stderr[j] / naive[j]  # sqrt(dc*)
-        rest = [i for i in range(len(names)) if i != j]
         for side, out in ((-1.0, low), (1.0, high)):
-            room = (x[j] - problem.lower[j]) if side < 0 else (problem.upper[j] - x[j])
-            delta = min(float(stderr[j]), 0.999 * float(room))
-            sigma = math.nan
-            for _ in range(PROFILE_STEPS):
-                if past(deadline):
-                    break
-                if not delta > 0:
-                    sigma = math.nan if room <= 0 else sigma  # on its bound: no interval that side
-                    break
-                v = float(x[j] + side * delta)
-                x0 = np.clip(x + cov[:, j] / cov[j, j] * (side * delta), problem.lower, problem.upper)[rest]
-                inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS,
-                                  deadline=deadline)
-                if inner.timed_out:  # an unfinished inner fit overstates the rise: no sigma
-                    sigma = math.nan
-                    break
-                rise = math.sqrt(max(float(inner.cost) - cost, 0.0))
-                if not (np.isfinite(inner.cost) and rise > 0):
-                    sigma = math.inf
-                    break
-                sigma = delta * target / rise  # secant of sqrt(rise) through the best fit
-                if abs(sigma / delta - 1.0) < 0.1:
-                    break
-                delta = min(sigma, 0.999 * float(room))
-            out[j] = sigma
+            sides.append((out, j, (problem, x, cost, cov[:, j] / cov[j, j], j, side, float(stderr[j]), target,
+                                   deadline)))
+    if executor is not None and len(sides) > 1:  # each side's inner fits are independent of the others'
+        futures = [executor.submit(profile_side, *args) for _, _, args in sides]
+        sigmas = [f.result() for f in futures]
+    else:
+        sigmas = [profile_side(*args) for _, _, args in sides]
+    for (out, j, _), sigma in zip(sides, sigmas):
+        out[j] = sigma
     return low, high
+
+
+def profile_side(problem: FitProblem, x: np.ndarray, cost: float, shift: np.ndarray, j: int, side: float,
+                 stderr: float, target: float, deadline: float = math.inf) -> float:
+    """The profile sigma of parameter ``j`` on one side (``side`` -1 below, +1 above): :func:`profile_sigmas`'s
+    inner fits for it (a module-level function, so a worker process can run it).
+
+    ``shift``: ``cov[:, j] / cov[j, j]``, the valley floor's slope; ``target``: ``sqrt(dc*)``.
+    """
+    names = list(problem.names)
+    name = names[j]
+    rest = [i for i in range(len(names)) if i != j]
+    room = (x[j] - problem.lower[j]) if side < 0 else (problem.upper[j] - x[j])
+    delta = min(stderr, 0.999 * float(room))
+    sigma = math.nan
+    for _ in range(PROFILE_STEPS):
+        if past(deadline):
+            break
+        if not delta > 0:
+            sigma = math.nan if room <= 0 else sigma  # on its bound: no interval that side
+            break
+        v = float(x[j] + side * delta)
+        x0 = np.clip(x + shift * (side * delta), problem.lower, problem.upper)[rest]
+        inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS,
+                          deadline=deadline)
+        if inner.timed_out:  # an unfinished inner fit overstates the rise: no sigma
+            return math.nan
+        rise = math.sqrt(max(float(inner.cost) - cost, 0.0))
+        if not (np.isfinite(inner.cost) and rise > 0):
+            return math.inf
+        sigma = delta * target / rise  # secant of sqrt(rise) through the best fit
+        if abs(sigma / delta - 1.0) < 0.1:
+            break
+        delta = min(sigma, 0.999 * float(room))
+    return sigma

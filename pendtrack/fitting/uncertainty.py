@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -263,7 +264,8 @@ class Uncertainty:
 
 
 def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: FitConfig, seed: int, workers: int,
-           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> Uncertainty:
+           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+           pool: Executor | None = None) -> Uncertainty:
     """The uncertainties of the refined best fit (step 4 of a fit).
 
     Parameters
@@ -285,6 +287,8 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     deadline : float
         ``time.monotonic()`` [s] after which no profile or bootstrap refit starts (the fit's
         time budget; what it left out is in ``cut_short``). The sandwich is always computed.
+    pool : Executor, optional
+        Worker processes kept by the caller (the search's): the profile sigmas' sides run there.
     """
     x = best.x
     u_paper, accepted = paper_uncertainty(found.xs, found.costs, options.accept_ratio)
@@ -309,7 +313,8 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     cut: list[str] = []
     if options.profile:
         profiled = [nm for nm in problem.names if nm not in STATE_NAMES]
-        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive, profiled, deadline=deadline)
+        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive, profiled, deadline=deadline,
+                                          executor=pool)
         if past(deadline):
             cut.append("profile sigmas")
     se_boot = nan
