@@ -78,6 +78,10 @@ def test_observe_state_slope_is_the_derivative_of_the_observation():
     np.testing.assert_allclose(om_obs, exact, rtol=1e-9, atol=1e-12)
     th, om = get_model("standard").observe_state(theta, omega, TRUTH)
     assert th is theta and om is omega  # no measurement term: the identity
+    shifted = compose("standard", ["offset"])
+    th, om = shifted.observe_state(theta, omega, {**TRUTH, "theta_off": 0.02})
+    np.testing.assert_array_equal(th, theta + 0.02)
+    np.testing.assert_array_equal(om, omega)  # a shift's slope is exactly 1 (no difference quotient's rounding)
 
 
 # ---- data-derived start values ---------------------------------------------------------------

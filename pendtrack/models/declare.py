@@ -145,6 +145,10 @@ class Term:
         multiply-adds cost the kernel's step less than the branch: with viscous, Coulomb,
         quadratic drag and added mass ``always``, the fractional simulation is 2-3 % faster
         than with them tested, measured).
+    shift : bool
+        A measurement term that adds a constant to the angle (``theta_obs = theta + c``): its
+        slope in theta is exactly 1, so the observed angular velocity is the model's
+        (:meth:`pendtrack.models.registry.Model.observe_state` skips the difference quotient).
     """
 
     name: str
@@ -158,6 +162,7 @@ class Term:
     domain: Callable[[Mapping[str, float], float], str | None] | None = None
     always: bool = False
     dfn: Callable | None = None
+    shift: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -166,6 +171,8 @@ class Term:
             raise ValueError(f"term '{self.name}' has slots but no fn")
         if self.kind == "measurement" and (self.slots or self.pack is not None or self.fn is None):
             raise ValueError(f"measurement term '{self.name}' needs an fn and has no slots")
+        if self.shift and self.kind != "measurement":
+            raise ValueError(f"term '{self.name}': only a measurement term can be a shift")
         if self.kind in ("base", "smooth", "friction") and (self.fn is None) != (self.dfn is None):
             raise ValueError(f"term '{self.name}': an fn needs its derivative dfn (and only an fn has one)")
 

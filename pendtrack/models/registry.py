@@ -78,6 +78,11 @@ class Model:
         """The terms of the observation (``theta_obs = f(theta, params)``), applied in this order."""
         return tuple(t for t in self.terms if CATALOGUE[t].kind == "measurement")
 
+    @cached_property
+    def _observes_by_shifts(self) -> bool:
+        """Every measurement term is a shift of the angle (its slope exactly 1)."""
+        return all(CATALOGUE[t].shift for t in self.measurement_terms)
+
     def physics(self) -> "Model":
         """The model without its measurement terms (the equation of motion alone)."""
         if not self.measurement_terms:
@@ -192,7 +197,7 @@ class Model:
         ``theta_obs = f(theta)`` as in :meth:`observe`, and ``omega_obs = d theta_obs/dt =
         f'(theta) omega``, with ``f'`` a central difference of the composed observation over
         +-:data:`OBSERVE_FD_STEP`: derived from the declarations (no term declares a
-        derivative). The identity (the same arrays) when the model has no measurement term.
+        derivative); exactly 1 when every measurement term is a shift (``Term.shift``). The identity (the same arrays) when the model has no measurement term.
 
         Parameters
         ----------
@@ -212,6 +217,8 @@ class Model:
             return theta, omega
         p = params if validated else self.validate(params)
         theta = np.asarray(theta, dtype=np.float64)
+        if self._observes_by_shifts:
+            return self._observe(theta, p), np.asarray(omega, dtype=np.float64)
         d = OBSERVE_FD_STEP
         slope = (self._observe(theta + d, p) - self._observe(theta - d, p)) / (2.0 * d)
         return self._observe(theta, p), slope * np.asarray(omega, dtype=np.float64)

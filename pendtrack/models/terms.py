@@ -206,7 +206,7 @@ CATALOGUE: dict[str, Term] = {
         # measurement terms, applied in this order: the camera's zero, then its angle scale
         Term("offset", "measurement",
              (_p("theta_off", "rad", -INF, INF, True, True, "offset of the measured angle's zero"),),
-             "theta_obs = theta + theta_off", "measurement", fn=_offset),
+             "theta_obs = theta + theta_off", "measurement", fn=_offset, shift=True),
         Term("angle_scale", "measurement",
              (_p("k_scale", "1/rad^2", -INF, INF, True, True, "cubic error of the measured angle's scale"),),
              "theta_obs = theta (1 + k_scale theta^2)", "measurement", fn=_angle_scale),
