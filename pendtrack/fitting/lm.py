@@ -169,9 +169,12 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
     iterations = 0
     small = 0
     status, message = -1, "iteration cap reached"
+    moved = True  # J or r changed since J^T J and the gradient were formed (a rejected step changes neither)
     for _ in range(max_iterations):
-        jtj = J.T @ J
-        g = np.einsum("ij,i->j", J, r)
+        if moved:  # on a long record J^T J and J^T r cost ~0.15 ms, a tenth of an evaluation
+            jtj = J.T @ J
+            g = np.einsum("ij,i->j", J, r)
+            moved = False
         d = np.maximum(d, np.diag(jtj))
         scale = np.sqrt(d)
         pushing = ~(((x <= lower) & (g > 0)) | ((x >= upper) & (g < 0)))
@@ -236,10 +239,12 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
                     _rank_one_update(J, r_new - r - _matvec(J, step), step / s2)
                 fresh = False
             x, r, cost = x_new, r_new, cost_new
+            moved = True
         elif not fresh:  # the secant model failed: refresh it before damping more
             J = _fortran(jac(x, r))
             n_jac += 1
             fresh, since_fresh = True, 0
+            moved = True
         else:
             lam *= nu
             nu *= 2.0

@@ -419,7 +419,8 @@ class FitProblem:
         with ``S`` the central difference of ``F`` over +-``OBSERVE_FD_STEP`` (differentiated as
         it is computed, so this is the derivative of what :meth:`residuals` sees). The
         derivatives of ``F`` by theta and by the measurement parameters ``q`` are complex steps
-        of the declared formulas (arithmetic, so analytic).
+        of the declared formulas (arithmetic, so analytic). Where every measurement term is a shift
+        (``Term.shift``) these are exactly 1: ``dth`` gains 1 in the shifts' columns, in place.
         """
         from pendtrack.models.registry import OBSERVE_FD_STEP
         from pendtrack.models.terms import CATALOGUE
@@ -427,6 +428,12 @@ class FitProblem:
         model = self.model
         p = params  # validated by the caller
         th_obs, om_obs = model.observe_state(theta, omega, p, validated=True)
+        measured = {n for t in model.measurement_terms for n in CATALOGUE[t].params}
+        if model._observes_by_shifts:  # noqa: SLF001 - F = theta + sum of shifts: dF/dtheta = S = dF/dq = 1
+            for j, name in enumerate(self.names):
+                if name in measured:
+                    dth[:, j] += 1.0
+            return th_obs, om_obs, dth, dom
         d = OBSERVE_FD_STEP
         eps = 1e-30
 
@@ -439,7 +446,6 @@ class FitProblem:
         dslope_dth = (f(th_c + d + 1j * eps, p).imag - f(th_c - d + 1j * eps, p).imag) / (eps * 2.0 * d)
         out_th = df_dth[:, None] * dth
         out_om = (dslope_dth * omega)[:, None] * dth + slope[:, None] * dom
-        measured = {n for t in model.measurement_terms for n in CATALOGUE[t].params}
         for j, name in enumerate(self.names):
             if name not in measured:
                 continue
