@@ -216,9 +216,9 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     obs = _observation(art)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=str(kinematics))  # fail before any progress bar
     results = {}
-    # the models' searches share one set of worker processes, started now (their imports and kernels load
-    # while the first model's estimates run) rather than one set per model
-    workers = search_pool(config.fit.workers) if len(names) > 1 else None
+    # the models' searches (and their profile sigmas) share one set of worker processes, started now (their
+    # imports and kernels load while the first model's estimates run) rather than one set per model
+    workers = search_pool(config.fit.workers)
     try:
         for name in names:
             model = model_objs[name]
