@@ -19,7 +19,7 @@ import json
 import os
 import subprocess
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +96,7 @@ class Score:
     zero_reference: str
     returncode: int
     stderr: str
+    omega0_flag: dict[str, str] = field(default_factory=dict)  # model -> why its fit says Omega0 is no measurement
 
 
 def run_and_score(folder: Path, out: Path, flags: list[str]) -> Score:
@@ -119,9 +120,11 @@ def run_and_score(folder: Path, out: Path, flags: list[str]) -> Score:
         d -= 2 * np.pi * np.round(np.nanmedian(d[ok]) / (2 * np.pi))  # same branch (full turns)
     rms = float(np.sqrt(np.mean(d[ok] ** 2))) if ok.any() else nan
     omega0 = extra["params"]["Omega0"]
-    rel = {}
+    rel, flagged = {}, {}
     for path in sorted(out.glob("fit_*.json")):
         fit = json.loads(path.read_text())
         if "Omega0" in fit.get("params", {}):
             rel[fit["model"]] = abs(fit["params"]["Omega0"]["value"] / omega0 - 1)
-    return Score(float(ok.sum() / visible.sum()), rms, rel, zero, proc.returncode, proc.stderr)
+            if "Omega0" in (fit.get("flags") or {}):
+                flagged[fit["model"]] = fit["flags"]["Omega0"]
+    return Score(float(ok.sum() / visible.sum()), rms, rel, zero, proc.returncode, proc.stderr, flagged)

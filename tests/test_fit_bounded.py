@@ -127,7 +127,7 @@ def test_plausibility_flags_rules():
     x = np.array([5.0, 0.3, -1154.0, 150.0, 0.0007, 1e-6, 2.5, 1e-4])
     se = np.array([1e-4, 0.01, 50.0, 2776.0, 0.001, 0.01, 1e-3, 1e-2])
     lo = np.array([1e-6, 0.0, -1e4, 0.0, 0.0, 1e-6, -np.inf, -np.inf])
-    hi = np.array([np.inf, np.inf, -1e-3, np.inf, np.inf, 2 - 1e-6, np.inf, np.inf])
+    hi = np.array([np.inf, np.inf, -1e-3, np.inf, np.inf, 1.0, np.inf, np.inf])
     floors = {"Omega0": 1e-3, "C4": 5e-3, "G2": 1e-3, "Ca": 1e-3, "beta": 1e-3, "t0": 0.0}
     flags = plausibility_flags(names, x, se, lo, hi, t_start=0.0, t_end=60.0, floors=floors)
     assert set(flags) == {"t0", "G2", "beta"}
@@ -138,6 +138,34 @@ def test_plausibility_flags_rules():
     x2 = x.copy()
     x2[1] = 0.0
     assert "C4" not in plausibility_flags(names, x2, se, lo, hi, t_start=0.0, t_end=60.0, floors=floors)
+
+
+def test_the_memory_term_as_an_added_mass_flags_omega0():
+    # the field render's fractional fit (axle out of frame): beta and p_f within 2 standard errors of 1, where
+    # -G2 D^beta(A |A|^(p_f-1)) is G2 dA/dt*, an added mass: Omega0 (7 % off the swing's) trades off against G2
+    names = ("Omega0", "G1", "G2", "beta", "p_f", "theta_off", "theta0", "omega0")
+    x = np.array([5.571, 0.0, 0.1377, 0.99995, 0.99357, 1.7e-4, 0.8, 0.05])
+    se = np.array([0.11, 2e-4, 0.046, 0.007, 0.0045, 3e-5, 1e-3, 1e-2])
+    lo = np.array([1e-6, 0.0, 0.0, 1e-6, 1e-6, -np.inf, -np.inf, -np.inf])
+    hi = np.array([np.inf, np.inf, np.inf, 1.0, np.inf, np.inf, np.inf, np.inf])
+    floors = {"Omega0": 1e-3, "G1": 1e-3, "G2": 1e-3}
+
+    def flags(xx: np.ndarray, ss: np.ndarray) -> dict[str, str]:
+        return plausibility_flags(names, xx, ss, lo, hi, t_start=0.0, t_end=12.0, floors=floors,
+                                  nuisance=("theta_off",))
+
+    assert set(flags(x, se)) == {"Omega0"} and "added mass" in flags(x, se)["Omega0"]
+    # p_f told from 1 (2.2 standard errors), or beta told from 1, or no memory: Omega0 stands
+    for j, v in ((4, 1.01), (3, 0.9), (2, 0.0)):
+        moved = x.copy()
+        moved[j] = v
+        assert "Omega0" not in flags(moved, se), (j, v)
+    # the drag-like minimum of the same record: beta 0 +- 0.13, p_f 1.2 +- 1.6
+    drag = x.copy()
+    drag[[0, 2, 3, 4]] = (5.2207, 0.0025, 0.3, 1.235)
+    wide = se.copy()
+    wide[[0, 3, 4]] = (0.0022, 0.13, 1.6)
+    assert "Omega0" not in flags(drag, wide)
 
 
 def test_fit_problems_from_facts():

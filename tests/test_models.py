@@ -28,7 +28,7 @@ def test_builtin_models_and_param_names() -> None:
     assert get_model("fractional").param_names == ("Omega0", "G1", "G2", "beta", "p_f")
     assert get_model("inertial").param_names == ("Omega0", "Ca")
     assert get_model("fractional").has_memory and not get_model("classic").has_memory
-    assert get_model("fractional").bounds["beta"] == (0.0, 2.0)
+    assert get_model("fractional").bounds["beta"] == (0.0, 1.0)
 
 
 def test_term_catalogue_names_are_fixed() -> None:
@@ -85,7 +85,7 @@ def test_unknown_model_is_a_model_error() -> None:
         ("standard", {**STANDARD, "Omega0": 0.0}, "'Omega0'.*outside"),
         ("standard", {**STANDARD, "C0": float("nan")}, "'C0'.*outside"),
         ("standard", {**STANDARD, "C0": "a"}, "must be a number"),
-        ("fractional", {**FRACTIONAL, "beta": 2.0}, "'beta'.*\\(0, 2\\)"),
+        ("fractional", {**FRACTIONAL, "beta": 1.2}, "'beta'.*\\(0, 1\\]"),
         ("fractional", {**FRACTIONAL, "beta": 0.0}, "'beta'"),
         ("fractional", {**FRACTIONAL, "p_f": 0.0}, "'p_f'"),
         ("classic", {**CLASSIC, "p": -1.0}, "'p'"),

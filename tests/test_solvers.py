@@ -36,7 +36,7 @@ def _run(coeffs: np.ndarray, n: int, h: float, theta0: float, omega0: float, mem
 @pytest.mark.parametrize(
     ("model", "params", "memory_steps"),
     [("standard", STANDARD, -1), ("classic", CLASSIC, -1), ("opa", OPA, -1),
-     ("fractional", FRACTIONAL, 100), ("fractional", {**FRACTIONAL, "p_f": 0.7, "beta": 1.4}, 100),
+     ("fractional", FRACTIONAL, 100), ("fractional", {**FRACTIONAL, "p_f": 0.7, "beta": 1.0}, 100),
      ("fractional", FRACTIONAL, -1)],
 )
 def test_numba_kernel_matches_python_twin(model: str, params: dict, memory_steps: int) -> None:

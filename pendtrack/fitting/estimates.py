@@ -37,7 +37,7 @@ MIN_AMPLITUDE = 0.02  # [rad] half peak-to-peak: 20 mrad is ~7x the paper's trac
 # grid of the shape parameters for the equation-error start (physically plausible ranges)
 SHAPE_GRID: dict[str, tuple[float, ...]] = {
     "p": (1.0, 1.5, 2.0, 2.5, 3.0),
-    "beta": (0.2, 0.5, 0.8, 1.1, 1.4),
+    "beta": (0.2, 0.5, 0.8),
     "p_f": (1.0, 1.5, 2.0, 2.5),
 }
 T0_OFFSETS = (0.5, 2.0, 8.0, 30.0)  # t_start - t0 for the C4/(t - t0) term [s]
@@ -50,7 +50,7 @@ MIN_LAG_PERIODS = 1.0 / 16
 # from fewer equations is undetermined, and its standard errors divide by m - k)
 MIN_ROWS_PER_PARAM = 4
 # exponents are kept in these ranges by the equation-error polish (noise can push them far out)
-SHAPE_LIMITS = {"p": (0.2, 6.0), "p_f": (0.2, 6.0), "beta": (0.02, 1.98)}
+SHAPE_LIMITS = {"p": (0.2, 6.0), "p_f": (0.2, 6.0), "beta": (0.02, 1.0)}
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,7 @@ def parameter_bounds(model: Any, t_start: float) -> tuple[np.ndarray, np.ndarray
     """Bounds of a model's parameters for the optimiser, in ``param_names`` order.
 
     The physical ranges of :mod:`pendtrack.models` made usable: open bounds at 0 (``Omega0``,
-    ``p``, ``p_f``, ``beta``) and at 2 (``beta``) moved in by 1e-6, and ``t0`` of the
+    ``p``, ``p_f``, ``beta``) moved in by 1e-6, and ``t0`` of the
     ``C4 omega/(t - t0)`` term kept at least 1 ms before the first simulated time.
     """
     lo = []
@@ -77,8 +77,6 @@ def parameter_bounds(model: Any, t_start: float) -> tuple[np.ndarray, np.ndarray
             a, b = t_start - 1e4, t_start - 1e-3
         if name in ("Omega0", "p", "p_f", "beta"):
             a = max(a, 1e-6)
-        if name == "beta":
-            b = min(b, 2.0 - 1e-6)
         lo.append(a)
         hi.append(b)
     return np.array(lo), np.array(hi)

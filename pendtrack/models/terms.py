@@ -194,7 +194,8 @@ CATALOGUE: dict[str, Term] = {
         # K_HAS_MEMORY = 1 selects the paper's predictor-corrector (also with G2 = 0)
         Term("memory", "memory",
              (_positive("G2", "1", "fractional (memory) drag amplitude, eq. ourfinalmodel"),
-              _p("beta", "1", 0.0, 2.0, True, True, "order of the Grunwald-Letnikov derivative, eq. ourfinalmodel"),
+              _p("beta", "1", 0.0, 1.0, True, False, "order of the Grunwald-Letnikov derivative, eq. ourfinalmodel: "
+                 "from a drag on the velocity (0) to one on the acceleration, an added mass (1)"),
               _p("p_f", "1", 0.0, INF, True, True, "exponent inside the fractional derivative, eq. ourfinalmodel")),
              "-4 Omega0^2 G2 D^beta_{t*}(A_omega |A_omega|^(p_f-1)), t* = 2 Omega0 t (left Grunwald-Letnikov)",
              "ourfinalmodel",
