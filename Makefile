@@ -16,6 +16,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test,dask]'
+	$(BIN)/python -c "from pendtrack.models.kernels import compile_kernels; compile_kernels()"
 	touch $@
 
 demo: setup

@@ -60,7 +60,7 @@ def main() -> None:
           f"workers={args.workers or os.cpu_count()} (cpu_count={os.cpu_count()})", flush=True)
     t0 = time.perf_counter()
     # the fit stage's settings, the number of starts aside, without the time budget (every start is timed)
-    options = replace(Config().fit, n_starts=args.starts, time_budget_s=0.0)
+    options = replace(Config().fit, n_starts=args.starts)
     res = fit_model(model, kin.t, kin.theta, kin.omega, options=options, alpha=kin.alpha, ok=kin.ok, observation=obs,
                     workers=args.workers, seed=args.seed, on_progress=tick)
     wall = time.perf_counter() - t0

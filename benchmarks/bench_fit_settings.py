@@ -73,8 +73,8 @@ def main(argv: list[str] | None = None) -> None:
     kin = kinematics_of(video, cache / f"kinematics_{args.seconds:g}s", base)
     overrides = dict(kv.split("=", 1) for kv in args.reference)
     configs = {
-        "defaults": base.replace("fit", time_budget_s=0.0),
-        "reference": base.replace("fit", time_budget_s=0.0, **{k: _value(v) for k, v in overrides.items()}),
+        "defaults": base,
+        "reference": base.replace("fit", **{k: _value(v) for k, v in overrides.items()}),
     }
     models = args.models or list(base.fit.models)
     print(f"record: {kin} ({args.seconds:g} s); reference: {' '.join(args.reference)}; "

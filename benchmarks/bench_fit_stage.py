@@ -6,7 +6,7 @@ Usage::
 
 The record is bench_run's render (``--cache``, rendered if missing) tracked once into
 ``<cache>/record_60s/kinematics.parquet`` and reused, so runs of different code fit the very
-same samples. The fit stage then runs with the default config but ``[fit] time_budget_s = 0``
+same samples. The fit stage then runs with the default config
 (all 150 starts of the three models, their uncertainties) into ``--out`` and prints its wall
 time and each model's ``runtime_s``. ``--compare DIR`` (the ``--out`` of an earlier run,
 e.g. of older code) prints issue #16's "nothing found changes" table: each model's Xi^2_min
@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--compare", default=None, help="an earlier --out to compare with")
     args = ap.parse_args(argv)
     record = record_once(Path(args.cache), args.seconds)
-    config = Config().replace("fit", time_budget_s=0.0)
+    config = Config()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         print(f"record {record}; load average {os.getloadavg()[0]:.2f}")

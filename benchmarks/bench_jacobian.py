@@ -55,7 +55,7 @@ def main() -> None:
         results, walls = {}, {}
         order = ("fd", "sensitivity") if k % 2 == 0 else ("sensitivity", "fd")
         for method in order:
-            options = replace(Config().fit, n_starts=args.starts, time_budget_s=0.0, jacobian=method)
+            options = replace(Config().fit, n_starts=args.starts, jacobian=method)
             t0 = time.perf_counter()
             results[method] = fit_model(model, kin.t, kin.theta, kin.omega, options=options, alpha=kin.alpha,
                                         ok=kin.ok, observation=obs, workers=args.workers, seed=args.seed)

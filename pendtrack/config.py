@@ -133,10 +133,6 @@ class FitConfig:
     merge_tol: float = 1e-5
     trust_region_polish: bool = False  # finish the best fit by a trust-region least-squares run too (discovery: on)
     workers: int = 0  # processes for the starts; 0 = all cores (does not change the results)
-    # wall-time budget of each model's fit [s]; 0 = none. Three models of a 60 s record then fit in
-    # about 2 min on 2 cores, so `run` on a 60 s video stays within 3 min (one classic fit ran 740 s)
-    time_budget_s: float = 40.0
-    time_reserve: float = 0.5  # share of the budget kept after the search: 3/4 to refine the best start, 1/4 for its uncertainties
     # fit theta's zero as a nuisance parameter (the measurement term "offset", theta_off) in `fit` and
     # `run`: auto = when the zero is not a measured rest (angle.parquet's zero_reference "vertical", or a
     # plain table), always, never
@@ -379,8 +375,6 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.hopeless_ratio_memory": (_ge(0),),
     "fit.merge_tol": (_ge(0),),
     "fit.workers": (_ge(0),),
-    "fit.time_budget_s": (_ge(0),),
-    "fit.time_reserve": (_within(0, 1, lo_open=True, hi_open=True),),
     "batch.scheduler": (_NAME,),
     "batch.workers": (_ge(0),),
     "batch.threads_per_worker": (_ge(1),),
@@ -450,10 +444,21 @@ def _coerce_value(value: Any, hint: Any, source: str, key: str) -> Any:
     raise TypeError(f"unsupported config type {hint!r} for {key}")  # programming error
 
 
+#: Settings that no longer exist, with what to use instead (a one-line error names it).
+REMOVED_KEYS = {
+    "fit.time_budget_s": "a fit's work is set by n_starts and start_budget, never by seconds (the same input gives "
+                         "the same fit on any machine); remove the key",
+    "fit.time_reserve": "a fit has no time budget any more; remove the key",
+}
+
+
 def _coerce_section(cls: type, values: dict[str, Any], source: str, section: str) -> Any:
     hints = get_type_hints(cls)
     known = {f.name for f in fields(cls)}
     for key in values:
+        if f"{section}.{key}" in REMOVED_KEYS:
+            raise ConfigError(f"'{section}.{key}' is no longer a setting: {REMOVED_KEYS[f'{section}.{key}']}",
+                              path=source)
         if key not in known:
             raise ConfigError(f"unknown key '{section}.{key}'", path=source)
     coerced = {k: _coerce_value(v, hints[k], source, f"{section}.{k}") for k, v in values.items()}

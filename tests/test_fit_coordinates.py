@@ -119,7 +119,7 @@ def test_the_memory_models_whole_fit_ends_at_the_same_minimum_in_either_coordina
     obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=3)
     fits = {}
     for coords in ("natural", "decorrelated"):
-        options = FitConfig(n_starts=6, time_budget_s=0.0, profile=False, coordinates=coords)
+        options = FitConfig(n_starts=6, profile=False, coordinates=coords)
         fits[coords] = fit_model(m, kin.t, kin.theta, kin.omega, ok=kin.ok, observation=obs, options=options,
                                  seed=0, workers=1)
     a, b = fits["natural"], fits["decorrelated"]

@@ -33,7 +33,7 @@ K_SCALE = 0.1 / THETA0**2  # [1/rad^2]: the angle 10 % too large at 2.5 rad
 
 def options() -> FitConfig:
     # two starts: the standard model has one minimum (every start meets it); no wall-clock budget
-    return FitConfig(n_starts=2, start_budget=FINAL_ITERATIONS, profile=False, time_budget_s=0.0)
+    return FitConfig(n_starts=2, start_budget=FINAL_ITERATIONS, profile=False)
 
 
 def record(measured):  # noqa: ANN001, ANN201

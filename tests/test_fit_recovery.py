@@ -36,7 +36,7 @@ N_STARTS = {"classic": 2, "opa": 2, "fractional": 8}
 def options(n_starts: int) -> FitConfig:
     """The recovery tests' fit: few starts, each with budget FINAL_ITERATIONS, profile-likelihood sigmas."""
     # no wall-clock budget: recovery is judged on every start, however busy the machine
-    return FitConfig(n_starts=n_starts, start_budget=FINAL_ITERATIONS, profile=True, time_budget_s=0.0)
+    return FitConfig(n_starts=n_starts, start_budget=FINAL_ITERATIONS, profile=True)
 
 TRUTHS = {
     # paper-like magnitudes (figs. fourparamsclassic, laserplots, paramsfractional)

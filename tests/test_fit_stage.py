@@ -53,7 +53,7 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
               "memory_s", "full_history", "hac_lag", "stderr_reliable", "u_region", "stderr_naive",
               "stderr_bootstrap", "stderr_low", "stderr_high", "estimates", "fixed", "covariance", "start_costs",
               "message", "provenance",
-              "n_starts_planned", "stopped", "flags", "trustworthy",  # issue #15: time budget and flags
+              "flags", "findings", "trustworthy",
               "measurement", "fitted_model"}  # issue #14: the model's measurement terms, the model fitted
     assert set(data) == set(FIT_JSON_KEYS) | extras
     assert data["model"] == "standard" and data["converged"] is True and data["n_starts"] == 3

@@ -25,7 +25,7 @@ from pendtrack.tables import read_record
 
 STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
 OFFSET = 0.01  # [rad]
-FAST = Config().replace("fit", n_starts=2, workers=1, profile=False, time_budget_s=0.0)
+FAST = Config().replace("fit", n_starts=2, workers=1, profile=False)
 
 
 def _theta() -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +102,7 @@ def test_fit_cli_on_a_plain_table_reports_theta_off(tmp_path):
     table = tmp_path / "lab.txt"
     np.savetxt(table, np.column_stack([t, theta, np.zeros(t.size)]))
     cfg = tmp_path / "fast.toml"
-    cfg.write_text("[fit]\nn_starts = 2\nworkers = 1\nprofile = false\ntime_budget_s = 0.0\n")
+    cfg.write_text("[fit]\nn_starts = 2\nworkers = 1\nprofile = false\n")
     res = CliRunner().invoke(cli, ["fit", str(table), "--columns", "t,theta,_", "--model", "standard", "--config",
                                    str(cfg), "-q", "--out", str(tmp_path / "out")])
     assert res.exit_code == 0, res.output

@@ -83,9 +83,14 @@ def fit_state(f: dict[str, Any]) -> str:
         state = f"FLAGGED ({', '.join(f['flags'])})"
     else:
         state = "converged"
-    if f.get("stopped"):
-        state += f" [{f['stopped']}: {f.get('n_starts')} of {f.get('n_starts_planned')} starts]"
+    if f.get("findings"):
+        state += f" (no {', no '.join(sorted({_effect(v) for v in f['findings'].values()}))} in the data)"
     return state
+
+
+def _effect(finding: str) -> str:
+    """The effect a finding names: "the data show no memory: ..." -> "memory"."""
+    return finding.removeprefix("the data show no ").split(":", 1)[0]
 
 
 def exit_on_fit_problems(facts: dict[str, Any]) -> None:

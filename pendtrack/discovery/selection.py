@@ -173,10 +173,8 @@ def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
     """
     from pendtrack.fitting.multistart import FINAL_ITERATIONS
 
-    # no wall-clock budget: a candidate's fit must not depend on how busy the machine is, or the
-    # same record would give different discoveries on different machines
     fit = FitConfig(cost=task.cost, n_starts=task.n_starts, start_budget=FINAL_ITERATIONS, profile=False,
-                    trust_region_polish=True, time_budget_s=0.0)
+                    trust_region_polish=True)
     if full:
         fit = replace(fit, n_starts=1, ladder=False)
     elif task.initial:

@@ -36,7 +36,6 @@ from pendtrack.config import FIT_COORDINATES, FitConfig, ModelsConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.cost import COSTS, Observation
 from pendtrack.fitting.estimate import estimate
-from pendtrack.fitting.multistart import Deadlines
 from pendtrack.fitting.problem import JACOBIANS, Simulator
 from pendtrack.fitting.record import Record
 from pendtrack.fitting.refine import refine
@@ -143,12 +142,11 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                     source=source)
     setup = estimate(model, record, options=options, model_options=model_options, fixed=fixed, initial=initial,
                      simulator=simulator, method=method)
-    deadlines = Deadlines.start(options.time_budget_s, options.time_reserve, now=t_wall)
     found = search(setup, options=options, seed=seed, workers=workers, extra_starts=extra_starts,
-                   on_progress=on_progress, deadline=deadlines.search, pool=pool)
-    best = refine(setup.problem, found.best, options=options, deadline=deadlines.refine())
+                   on_progress=on_progress, pool=pool)
+    best = refine(setup.problem, found.best, options=options)
     unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress,
-                 deadline=deadlines.end(), pool=pool)
+                 pool=pool)
     return build_result(setup, found, best, unc, options=options, model_options=model_options, seed=seed,
                         runtime_s=time.monotonic() - t_wall)
 

@@ -22,15 +22,12 @@ unless another's was lower, which then carries on) and is always finished by the
 
 Tasks are handed to the workers lowest start first (a start's next window before a new start),
 at most one per worker at a time; each worker holds the problem and its windows
-(:func:`_init`), so a task pickles only a start vector. At the deadline no task begins, running
-ones stop where they are (:class:`pendtrack.fitting.multistart._Tracker`), and every start that
-began ends where it is, its cost taken on the whole window: as before, ``n_starts`` counts the
-starts that began.
+(:func:`_init`), so a task pickles only a start vector. Every start runs: the search's work is
+set by ``n_starts`` and each window's evaluation cap, never by a clock.
 """
 
 from __future__ import annotations
 
-import math
 import pickle
 import uuid
 from collections.abc import Callable, Sequence
@@ -39,8 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pendtrack.fitting.multistart import (TIME_BUDGET, StartOutcome, WindowFit, _warm, finish, fit_window,
-                                          inside_bounds, past, windows)
+from pendtrack.fitting.multistart import StartOutcome, WindowFit, _warm, finish, fit_window, inside_bounds, windows
 from pendtrack.fitting.problem import FitProblem
 from pendtrack.parallel import ProcessPool, process_pool, worker_count
 
@@ -108,19 +104,16 @@ def _init(token: str, problem: FitProblem, ends: tuple[float, ...], x: np.ndarra
 
 def _load_kernels() -> None:
     """Initializer of a shared pool (:func:`search_pool`): the numba kernels loaded before any problem arrives."""
-    from pendtrack.models.kernels import pc_kernel_nb, rk_kernel_nb, rk_sens_kernel_nb
+    from pendtrack.models.kernels import compile_kernels
 
-    rk_kernel_nb()
-    pc_kernel_nb()
-    rk_sens_kernel_nb()
+    compile_kernels()
 
 
 def _ready() -> None:
     """A no-op task: submitting one per worker makes a pool start them all now."""
 
 
-def _window_task(token: str, held: bytes | None, k: int, x: np.ndarray, max_nfev: int | None, deadline: float,
-                 spent: int) -> WindowFit:
+def _window_task(token: str, held: bytes | None, k: int, x: np.ndarray, max_nfev: int | None) -> WindowFit:
     """Window ``k`` of the problem ``token`` from ``x``; ``held`` = the pickled ``(problem, ends)``, taken up by a
     worker that holds another problem (a shared pool), None where every worker holds it already."""
     if _W.get("token") != token:
@@ -128,7 +121,7 @@ def _window_task(token: str, held: bytes | None, k: int, x: np.ndarray, max_nfev
             raise RuntimeError("a ladder task reached a worker without its problem")  # programming error
         _hold(token, *pickle.loads(held))
     sub, last = _W["windows"][k]  # type: ignore[index]
-    return fit_window(sub, x, last=last, max_nfev=max_nfev, deadline=deadline, spent=spent)
+    return fit_window(sub, x, last=last, max_nfev=max_nfev)
 
 
 def search_pool(workers: int) -> ProcessPool | None:
@@ -159,7 +152,7 @@ class _Inline:
 
 def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[float], *,
                rules: LadderRules = LadderRules(), workers: int = 0, max_nfev: int | None = None,
-               on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+               on_progress: Callable[[int], None] | None = None,
                pool: ProcessPool | None = None) -> list[StartOutcome]:
     """Every start over the growing-window ladder, window by window, with :class:`LadderRules`.
 
@@ -179,9 +172,6 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
         Cap on the whole window, in Jacobians' worth (``[fit] start_budget``).
     on_progress : callable, optional
         Called with 1 as each start ends.
-    deadline : float
-        ``time.monotonic()`` [s]: no task begins after it, running ones stop where they are, and
-        every start that began ends where it is; start 0 always runs its first window.
     pool : ProcessPool, optional
         Worker processes to use (:func:`search_pool`, kept by the caller across searches) instead of
         ``workers`` new ones; its workers are sent the problem with the tasks.
@@ -189,7 +179,7 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
     Returns
     -------
     list of StartOutcome
-        One per start that began, in start order.
+        One per start, in start order.
     """
     ends = tuple(float(e) for e in window_ends)
     wins = windows(problem, ends)
@@ -254,7 +244,7 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
             ready.append(st)
 
     def submit(st: _Start) -> None:
-        in_flight[executor.submit(_window_task, token, held, st.next, st.x, max_nfev, deadline, st.calls)] = st
+        in_flight[executor.submit(_window_task, token, held, st.next, st.x, max_nfev)] = st
 
     def collect(fut: Future) -> None:
         st = in_flight.pop(fut)
@@ -262,9 +252,7 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
         k = st.next
         st.fit, st.calls, st.x, st.next = fit, st.calls + fit.calls, fit.x, k + 1
         st.costs[k], st.points[k] = fit.cost, fit.x
-        if fit.timed_out:
-            end(st, finish(problem, st.index, st.x0, fit, st.calls, whole=wins[k][1]))
-        elif k == n_win - 1:
+        if k == n_win - 1:
             end(st, finish(problem, st.index, st.x0, fit, st.calls, whole=True))
         else:
             waiting.append(st)
@@ -276,13 +264,10 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
                 ready.sort(key=lambda s: s.index)
                 if ready:
                     st = ready.pop(0)
-                elif todo and (not began or not past(deadline)):
+                elif todo:
                     st = todo.pop(0)
                     began.append(st)
                 else:
-                    break
-                if st.next > 0 and past(deadline):
-                    ready.append(st)
                     break
                 submit(st)
                 if pool is None:  # inline: the result is there
@@ -300,11 +285,6 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
         else:  # a shared pool outlives this search (an error left tasks queued): drop them
             for fut in in_flight:
                 fut.cancel()
-    for st in began:  # the deadline: starts between two windows end where they are
-        if not st.ended and st.fit is not None:
-            out = finish(problem, st.index, st.x0, st.fit, st.calls, whole=False,
-                         message=f"stopped by the {TIME_BUDGET} after window {st.next} of {n_win}")
-            end(st, StartOutcome(**{**out.__dict__, "timed_out": True}))
     by_index = {st.index: st for st in began}
     outcomes = []
     for st in began:
@@ -315,8 +295,7 @@ def run_ladder(problem: FitProblem, starts: np.ndarray, window_ends: Sequence[fl
             o = rep.outcome
             assert o is not None
             st.outcome = StartOutcome(index=st.index, x0=st.x0, x=o.x, cost=o.cost, success=o.success,
-                                      nfev=st.calls, message=f"merged with start {rep.index}: {o.message}",
-                                      timed_out=o.timed_out)
+                                      nfev=st.calls, message=f"merged with start {rep.index}: {o.message}")
         if st.outcome is not None:
             outcomes.append(st.outcome)
     return outcomes

@@ -25,7 +25,6 @@ warm the simulator once (numba kernels load from their ``cache=True`` cache or c
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from dataclasses import dataclass
@@ -43,60 +42,6 @@ RUNG_ITERATIONS = 12  # Levenberg-Marquardt iterations per shorter window (enoug
 FINAL_ITERATIONS = 100  # cap on the whole window
 SETTLED = 1e-6  # a budget-stopped fit counts as converged if its last 20 % gained less (relative cost):
 # with N ~ 1e4 samples that is a move of ~0.1 standard error, well below the statistical precision
-TIME_BUDGET = "time budget"  # what a fit stopped by ``[fit] time_budget_s`` records as ``stopped``
-REFINE_SHARE = 0.75  # share of the budget's reserve (``[fit] time_reserve``) that refines the best start
-
-
-def past(deadline: float) -> bool:
-    """``time.monotonic()`` has reached ``deadline`` [s] (``math.inf``: never)."""
-    return deadline < math.inf and time.monotonic() >= deadline
-
-
-@dataclass(frozen=True)
-class Deadlines:
-    """When each step of a fit must stop (``time.monotonic()`` [s]; ``math.inf``: no budget).
-
-    ``[fit] time_budget_s`` B from the fit's start t0: the search stops launching and running
-    starts at ``t0 + (1 - reserve) B``; the rest, the reserve, is kept for the best start:
-    :data:`REFINE_SHARE` of it to refine it (the classic model's best start may need ~4000
-    simulations, ~15 s on a 60 s record), the rest for its uncertainties (profile sigmas, bootstrap). Each of
-    these gets its share even when the step before overran (a pool's start, a slow first
-    simulation), so the best start is always finished. The sandwich standard errors are
-    always computed (a few Jacobians).
-    """
-
-    t0: float = 0.0
-    budget_s: float = 0.0
-    reserve: float = 0.5
-
-    @classmethod
-    def start(cls, budget_s: float, reserve: float, *, now: float | None = None) -> "Deadlines":
-        """Deadlines of a fit starting ``now`` (default ``time.monotonic()``) with a budget of ``budget_s`` [s].
-
-        ``budget_s <= 0`` means no budget; ``reserve`` is the share kept after the search [1].
-        """
-        return cls(t0=time.monotonic() if now is None else now, budget_s=float(budget_s), reserve=float(reserve))
-
-    @property
-    def search(self) -> float:
-        """End of the search [s]."""
-        if not self.budget_s > 0:
-            return math.inf
-        return self.t0 + (1.0 - self.reserve) * self.budget_s
-
-    def refine(self, now: float | None = None) -> float:
-        """End of the refine step when it begins ``now``: its share of the reserve, at least [s]."""
-        return self._share(1.0 - (1.0 - REFINE_SHARE) * self.reserve, REFINE_SHARE * self.reserve, now)
-
-    def end(self, now: float | None = None) -> float:
-        """End of the uncertainty step when it begins ``now``: the budget, or its share of the reserve [s]."""
-        return self._share(1.0, (1.0 - REFINE_SHARE) * self.reserve, now)
-
-    def _share(self, until: float, share: float, now: float | None) -> float:
-        if not self.budget_s > 0:
-            return math.inf
-        now = time.monotonic() if now is None else now
-        return max(self.t0 + until * self.budget_s, now + share * self.budget_s)
 
 
 @dataclass(frozen=True)
@@ -117,8 +62,6 @@ class StartOutcome:
         Residual evaluations over all windows, Jacobian ones included.
     message : str
         The final least-squares message.
-    timed_out : bool
-        Stopped by its deadline (the fit's time budget) before it ended.
     """
 
     index: int
@@ -128,7 +71,6 @@ class StartOutcome:
     success: bool
     nfev: int
     message: str
-    timed_out: bool = False
 
 
 def window_ladder(t_start: float, t_end: float, first_end: float, *, growth: float = 2.0) -> tuple[float, ...]:
@@ -197,13 +139,11 @@ class _Tracker:
     """
 
     def __init__(self, problem: FitProblem, budget: int, *, central: bool = False,
-                 deadline: float = math.inf, coords: BoundCoordinates | None = None) -> None:
+                 coords: BoundCoordinates | None = None) -> None:
         self.problem = problem
         self.coords = coords  # the steps' coordinates y (None: the parameters x themselves)
         self.budget = budget
         self.central = central
-        self.deadline = deadline  # time.monotonic() [s] after which it stops (after its first evaluation)
-        self.timed_out = False
         self.calls = 0
         self.best_x: np.ndarray | None = None
         self.best_r: np.ndarray | None = None
@@ -216,9 +156,6 @@ class _Tracker:
 
     def _residuals(self, x: np.ndarray) -> np.ndarray:
         if self.calls >= self.budget:
-            raise _Budget
-        if self.calls and past(self.deadline):
-            self.timed_out = True
             raise _Budget
         self.calls += 1
         r = self.problem.residuals(x)
@@ -233,9 +170,6 @@ class _Tracker:
         """The sensitivity Jacobian through the counter (its finite differences' worth of evaluations)."""
         worth = x.size * (2 if self.central else 1)
         if self.calls + worth > self.budget:  # where the finite differences would have run out
-            raise _Budget
-        if self.calls and past(self.deadline):
-            self.timed_out = True
             raise _Budget
         mark = int(0.8 * self.budget)
         before = self.calls
@@ -296,8 +230,6 @@ class WindowFit:
     status : int
         Levenberg-Marquardt status (> 0 converged, 5 settled on its budget, 0 stopped).
     message : str
-    timed_out : bool
-        Stopped by the deadline.
     """
 
     x: np.ndarray
@@ -305,11 +237,10 @@ class WindowFit:
     calls: int
     status: int
     message: str
-    timed_out: bool
 
 
-def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | None = None, central: bool = False,
-               deadline: float = math.inf, spent: int = 0) -> WindowFit:
+def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | None = None,
+               central: bool = False) -> WindowFit:
     """Least squares from ``x`` on one window ``sub`` of a start's ladder (:func:`local_fit`'s step).
 
     Parameters
@@ -321,17 +252,14 @@ def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | No
     last : bool
         The whole window: tolerance ``FINAL_TOL`` and ``max_nfev`` (default ``FINAL_ITERATIONS``)
         Jacobians' worth; otherwise ``RUNG_TOL`` and ``RUNG_ITERATIONS``.
-    max_nfev, central, deadline
+    max_nfev, central
         As in :func:`local_fit`.
-    spent : int
-        Evaluations the start spent before this window (for the message only).
     """
     p = x.size
     tol = FINAL_TOL if last else RUNG_TOL
     iters = (max_nfev or FINAL_ITERATIONS) if last else RUNG_ITERATIONS
     coords = sub.coordinates.bind(sub.names) if sub.coordinates is not None else None
-    tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, deadline=deadline,
-                       coords=coords)
+    tracker = _Tracker(sub, iters * (p + 2) * (2 if central else 1), central=central, coords=coords)
     if coords is None:
         y, lower, upper = x, sub.lower, sub.upper
     else:
@@ -341,16 +269,13 @@ def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | No
                                   ftol=tol, xtol=tol, max_iterations=10 * tracker.budget)
         status, message = res.status, res.message
     except _Budget:
-        if tracker.timed_out:
-            status, message = 0, f"stopped by the {TIME_BUDGET} after {spent + tracker.calls} evaluations"
-        elif tracker.settled:
+        if tracker.settled:
             status, message = 5, f"cost settled (budget of {tracker.calls} evaluations spent)"
         else:
             status, message = 0, f"stopped after {tracker.calls} evaluations"
     if tracker.best_x is None:
         raise ValueError("least squares made no evaluation")  # programming error
-    return WindowFit(x=tracker.best_x, cost=tracker.best_cost, calls=tracker.calls, status=status, message=message,
-                     timed_out=tracker.timed_out)
+    return WindowFit(x=tracker.best_x, cost=tracker.best_cost, calls=tracker.calls, status=status, message=message)
 
 
 def windows(problem: FitProblem, window_ends: Sequence[float]) -> list[tuple[FitProblem, bool]]:
@@ -367,7 +292,7 @@ def windows(problem: FitProblem, window_ends: Sequence[float]) -> list[tuple[Fit
 
 
 def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float], *, index: int = 0,
-              max_nfev: int | None = None, central: bool = False, deadline: float = math.inf) -> StartOutcome:
+              max_nfev: int | None = None, central: bool = False) -> StartOutcome:
     """Least squares from ``x0`` over each window of the ladder, warm-starting each from the last.
 
     Levenberg-Marquardt (:func:`pendtrack.fitting.lm.levenberg_marquardt`), bounds by
@@ -389,9 +314,6 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
         Cap on the whole window, in Jacobians' worth of evaluations (default ``FINAL_ITERATIONS``).
     central : bool
         Central-difference Jacobians (twice the simulations, more accurate slopes).
-    deadline : float
-        ``time.monotonic()`` [s] at which the fit stops where it is (after at least one
-        evaluation), its cost then taken on the whole window; default none.
 
     Returns
     -------
@@ -401,9 +323,7 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
     calls = 0
     fit, whole = None, False
     for sub, last in windows(problem, window_ends):
-        if fit is not None and fit.timed_out:
-            break
-        fit = fit_window(sub, x, last=last, max_nfev=max_nfev, central=central, deadline=deadline, spent=calls)
+        fit = fit_window(sub, x, last=last, max_nfev=max_nfev, central=central)
         calls, x, whole = calls + fit.calls, fit.x, last
     assert fit is not None
     return finish(problem, index, x0, fit, calls, whole=whole)
@@ -414,7 +334,7 @@ def finish(problem: FitProblem, index: int, x0: np.ndarray, fit: WindowFit, call
     """The outcome of a start whose last fitted window was ``fit``; its cost on the whole window.
 
     ``whole``: that window was the whole one (else one more evaluation gives the whole window's cost:
-    a start stopped on a shorter window by the deadline, or early).
+    a start stopped early on a shorter window).
     """
     if whole:
         cost = fit.cost
@@ -422,8 +342,8 @@ def finish(problem: FitProblem, index: int, x0: np.ndarray, fit: WindowFit, call
         cost = sumsq(problem.residuals(fit.x))
         calls += 1
     return StartOutcome(index=index, x0=np.asarray(x0, dtype=float), x=fit.x, cost=cost,
-                        success=fit.status > 0 and not fit.timed_out and whole, nfev=calls,
-                        message=fit.message if message is None else message, timed_out=fit.timed_out)
+                        success=fit.status > 0 and whole, nfev=calls,
+                        message=fit.message if message is None else message)
 
 
 def _warm(problem: FitProblem, x: np.ndarray) -> None:
@@ -439,17 +359,15 @@ def _warm(problem: FitProblem, x: np.ndarray) -> None:
 
 
 def _task(problem: FitProblem, x0: np.ndarray, window_ends: tuple[float, ...], index: int,
-          max_nfev: int | None, deadline: float) -> StartOutcome | None:
-    if index > 0 and past(deadline):  # queued past the deadline: not run (task 0 always runs)
-        return None
-    return local_fit(problem, x0, window_ends, index=index, max_nfev=max_nfev, deadline=deadline)
+          max_nfev: int | None) -> StartOutcome:
+    return local_fit(problem, x0, window_ends, index=index, max_nfev=max_nfev)
 
 
 Task = tuple[FitProblem, np.ndarray, Sequence[float]]
 
 
 def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None = None,
-              on_progress: Callable[[int], None] | None = None, deadline: float = math.inf) -> list[StartOutcome]:
+              on_progress: Callable[[int], None] | None = None) -> list[StartOutcome]:
     """Run :func:`local_fit` on ``(problem, x0, window_ends)`` tasks, in parallel when ``workers != 1``.
 
     Parameters
@@ -463,36 +381,24 @@ def run_tasks(tasks: Sequence[Task], *, workers: int = 0, max_nfev: int | None =
         Cap on iterations per window.
     on_progress : callable, optional
         Called with 1 after each finished task.
-    deadline : float
-        ``time.monotonic()`` [s] after which no task starts and running ones stop where they
-        are (:func:`local_fit`); task 0 always runs. Default none.
 
     Returns
     -------
-    list of StartOutcome, in task order (``index`` = task number): the tasks that ran, a
-    prefix of ``tasks`` unless the deadline passed.
+    list of StartOutcome, in task order (``index`` = task number).
     """
     n_proc = worker_count(workers, len(tasks))
     outcomes: list[StartOutcome] = []
     if n_proc <= 1:
         for i, (prob, x0, ends) in enumerate(tasks):
-            if i > 0 and past(deadline):
-                break
-            outcomes.append(local_fit(prob, x0, tuple(ends), index=i, max_nfev=max_nfev, deadline=deadline))
+            outcomes.append(local_fit(prob, x0, tuple(ends), index=i, max_nfev=max_nfev))
             if on_progress:
                 on_progress(1)
         return outcomes
     with process_pool(n_proc, initializer=_warm, initargs=(tasks[0][0], tasks[0][1])) as pool:
-        futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev, deadline)
+        futures = [pool.submit(_task, prob, x0, tuple(float(e) for e in ends), i, max_nfev)
                    for i, (prob, x0, ends) in enumerate(tasks)]
         for fut in as_completed(futures):
-            if past(deadline):  # the queued tasks are not started
-                for other in futures:
-                    other.cancel()
-            out = None if fut.cancelled() else fut.result()
-            if out is None:
-                continue
-            outcomes.append(out)
+            outcomes.append(fut.result())
             if on_progress:
                 on_progress(1)
     return sorted(outcomes, key=lambda o: o.index)

@@ -19,7 +19,7 @@ from concurrent.futures import Executor
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from pendtrack.fitting.multistart import StartOutcome, local_fit, past
+from pendtrack.fitting.multistart import StartOutcome, local_fit
 from pendtrack.fitting.problem import FitProblem
 
 PROFILE_XTOL = 2e-4  # Brent's tolerance on the profiled parameter (beta's standard error is ~3e-2)
@@ -29,7 +29,7 @@ INNER_ITERATIONS = 30  # budget of each inner fit, in Jacobians' worth
 SLIP_RATIO = 1.5  # an inner fit ending above this times the best cost has slipped a period
 
 
-def profile_polish(problem: FitProblem, best: StartOutcome, along: str, *, deadline: float = math.inf) -> StartOutcome:
+def profile_polish(problem: FitProblem, best: StartOutcome, along: str) -> StartOutcome:
     """The best of ``best`` and a fit finished by minimising the profile cost over ``along``.
 
     Parameters
@@ -40,8 +40,6 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str, *, deadl
         The best start so far (its ``x`` in ``problem.names`` order).
     along : str
         The parameter to profile over (a fitted name with finite bounds, e.g. ``"beta"``).
-    deadline : float
-        ``time.monotonic()`` [s] after which no inner fit starts (the fit's time budget).
 
     Returns
     -------
@@ -70,13 +68,13 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str, *, deadl
         value = min(max(float(value), lo), hi)
         if value in done:
             return done[value][0]
-        if len(done) >= PROFILE_MAX_INNER or past(deadline):
+        if len(done) >= PROFILE_MAX_INNER:
             return math.inf
         sub = problem.with_fixed({along: value})
-        out = local_fit(sub, warm_start(value), (problem.t_end,), max_nfev=INNER_ITERATIONS, deadline=deadline)
+        out = local_fit(sub, warm_start(value), (problem.t_end,), max_nfev=INNER_ITERATIONS)
         calls[0] += out.nfev
         if not out.cost <= SLIP_RATIO * best.cost:  # a phase slip: once more from the best start
-            again = local_fit(sub, best.x[rest], (problem.t_end,), max_nfev=INNER_ITERATIONS, deadline=deadline)
+            again = local_fit(sub, best.x[rest], (problem.t_end,), max_nfev=INNER_ITERATIONS)
             calls[0] += again.nfev
             out = again if again.cost < out.cost else out
         cost = out.cost if np.isfinite(out.cost) else math.inf
@@ -99,21 +97,20 @@ def profile_polish(problem: FitProblem, best: StartOutcome, along: str, *, deadl
     x_star = np.empty_like(best.x)
     x_star[j] = b_star
     x_star[rest] = done[b_star][1]
-    final = local_fit(problem, x_star, (problem.t_end,), index=best.index, deadline=deadline)
+    final = local_fit(problem, x_star, (problem.t_end,), index=best.index)
     nfev = best.nfev + calls[0] + final.nfev
     if not final.cost <= best.cost:
         return StartOutcome(index=best.index, x0=best.x0, x=best.x, cost=best.cost, success=best.success,
                             nfev=nfev, message=best.message)
     return StartOutcome(index=best.index, x0=best.x0, x=final.x, cost=final.cost, success=final.success,
-                        nfev=nfev, timed_out=final.timed_out, message=f"{final.message} (after a profile over {along})")
+                        nfev=nfev, message=f"{final.message} (after a profile over {along})")
 
 
 PROFILE_STEPS = 2  # inner fits per side of each parameter: at +-stderr, then at the refined point
 
 
 def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndarray, naive: np.ndarray,
-                   params: list[str], *, deadline: float = math.inf,
-                   executor: Executor | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   params: list[str], *, executor: Executor | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Profile-likelihood standard errors below and above the best fit, per parameter.
 
     For parameter j the profile cost ``c_j(v) = min over the others`` is compared with the
@@ -137,8 +134,6 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
         Textbook standard errors of every fitted parameter.
     params : list of str
         The names to profile (others get NaN).
-    deadline : float
-        ``time.monotonic()`` [s] after which no inner fit starts: the sigmas not reached stay NaN.
     executor : Executor, optional
         Worker processes (a fit stage's search pool) to run the sides in (:func:`profile_side`
         each); the same sigmas as in this process.
@@ -165,8 +160,7 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
             continue
         target = math.sqrt(s2) * stderr[j] / naive[j]  # sqrt(dc*)
         for side, out in ((-1.0, low), (1.0, high)):
-            sides.append((out, j, (problem, x, cost, cov[:, j] / cov[j, j], j, side, float(stderr[j]), target,
-                                   deadline)))
+            sides.append((out, j, (problem, x, cost, cov[:, j] / cov[j, j], j, side, float(stderr[j]), target)))
     if executor is not None and len(sides) > 1:  # each side's inner fits are independent of the others'
         futures = [executor.submit(profile_side, *args) for _, _, args in sides]
         sigmas = [f.result() for f in futures]
@@ -178,7 +172,7 @@ def profile_sigmas(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndar
 
 
 def profile_side(problem: FitProblem, x: np.ndarray, cost: float, shift: np.ndarray, j: int, side: float,
-                 stderr: float, target: float, deadline: float = math.inf) -> float:
+                 stderr: float, target: float) -> float:
     """The profile sigma of parameter ``j`` on one side (``side`` -1 below, +1 above): :func:`profile_sigmas`'s
     inner fits for it (a module-level function, so a worker process can run it).
 
@@ -191,17 +185,12 @@ def profile_side(problem: FitProblem, x: np.ndarray, cost: float, shift: np.ndar
     delta = min(stderr, 0.999 * float(room))
     sigma = math.nan
     for _ in range(PROFILE_STEPS):
-        if past(deadline):
-            break
         if not delta > 0:
             sigma = math.nan if room <= 0 else sigma  # on its bound: no interval that side
             break
         v = float(x[j] + side * delta)
         x0 = np.clip(x + shift * (side * delta), problem.lower, problem.upper)[rest]
-        inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS,
-                          deadline=deadline)
-        if inner.timed_out:  # an unfinished inner fit overstates the rise: no sigma
-            return math.nan
+        inner = local_fit(problem.with_fixed({name: v}), x0, (problem.t_end,), max_nfev=INNER_ITERATIONS)
         rise = math.sqrt(max(float(inner.cost) - cost, 0.0))
         if not (np.isfinite(inner.cost) and rise > 0):
             return math.inf

@@ -14,20 +14,16 @@ the models' sloppy valleys, so the best start is finished here, in this order:
    fit from its point, finished by 1-2 again, replaces the best if it is no worse. A second
    optimiser with another step strategy guards against one that stopped short in a long valley.
 
-Each stage only ever replaces the best by a point of lower (or equal) cost, and none starts or
-goes on after the deadline (``[fit] time_budget_s``: the refine step has two thirds of the
-budget's reserve, :class:`pendtrack.fitting.multistart.Deadlines`); a best start that the
-deadline cut short is not converged.
+Each stage only ever replaces the best by a point of lower (or equal) cost; each is capped in
+evaluations, never in seconds, so the same record gives the same fit on any machine.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting.multistart import StartOutcome, local_fit, past
+from pendtrack.fitting.multistart import StartOutcome, local_fit
 from pendtrack.fitting.polish import profile_polish
 from pendtrack.fitting.problem import FitProblem
 
@@ -38,7 +34,7 @@ TRUST_REGION_NFEV = 60  # its evaluation cap, per fitted parameter
 TRUST_REGION_GAIN = 1e-6  # its optimum replaces the fit if its cost is lower by more than this fraction
 
 
-def refine(problem: FitProblem, best: StartOutcome, *, options: FitConfig, deadline: float = math.inf) -> StartOutcome:
+def refine(problem: FitProblem, best: StartOutcome, *, options: FitConfig) -> StartOutcome:
     """The best start finished (step 3 of a fit; module docstring); never worse than ``best``.
 
     Parameters
@@ -49,61 +45,50 @@ def refine(problem: FitProblem, best: StartOutcome, *, options: FitConfig, deadl
         The best start of the search (its ``index`` is kept).
     options : FitConfig
         Uses ``trust_region_polish`` and ``start_budget`` (the budget of the local fit after it).
-    deadline : float
-        ``time.monotonic()`` [s] at which refining stops where it is; default none.
 
     Returns
     -------
     StartOutcome
     """
-    best = _finish(problem, best, deadline)
-    if options.trust_region_polish and not past(deadline):
-        x = trust_region_polish(problem, best, deadline=deadline)
+    best = _finish(problem, best)
+    if options.trust_region_polish:
+        x = trust_region_polish(problem, best)
         if x is not None:
             again = _finish(problem, local_fit(problem, x, (problem.t_end,), index=best.index,
-                                               max_nfev=options.start_budget, deadline=deadline), deadline)
+                                               max_nfev=options.start_budget))
             if again.cost <= best.cost:
                 best = again
     return best
 
 
-def _finish(problem: FitProblem, best: StartOutcome, deadline: float) -> StartOutcome:
+def _finish(problem: FitProblem, best: StartOutcome) -> StartOutcome:
     """Continuation of a budget-stopped start, then the profile polish of a model with memory."""
     if not best.success:  # only the winner needs the last digits: continue it with a larger budget
         more = local_fit(problem, best.x, (problem.t_end,), index=best.index, max_nfev=POLISH_ITERATIONS,
-                         central=True, deadline=deadline)
+                         central=True)
         if more.cost <= best.cost:
             best = more
-    if PROFILE_ALONG in problem.names and len(problem.names) > 1 and not past(deadline):  # memory's sloppy valley
-        polished = profile_polish(problem, best, PROFILE_ALONG, deadline=deadline)
+    if PROFILE_ALONG in problem.names and len(problem.names) > 1:  # memory's sloppy valley
+        polished = profile_polish(problem, best, PROFILE_ALONG)
         if polished.cost < best.cost:
             best = polished
     return best
 
 
-class _Late(Exception):
-    """The trust-region polish reached the deadline."""
-
-
-def trust_region_polish(problem: FitProblem, best: StartOutcome, *, deadline: float = math.inf) -> np.ndarray | None:
+def trust_region_polish(problem: FitProblem, best: StartOutcome) -> np.ndarray | None:
     """A trust-region least-squares run from ``best.x``: its point if it gains, else None.
 
-    Gains means a cost lower than ``best.cost`` by more than :data:`TRUST_REGION_GAIN` relative;
-    a run that reaches ``deadline`` (``time.monotonic()`` [s]) gives None.
+    Gains means a cost lower than ``best.cost`` by more than :data:`TRUST_REGION_GAIN` relative.
     """
     from scipy.optimize import least_squares
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        if past(deadline):
-            raise _Late
-        return problem.residuals(x)
-
+    residuals = problem.residuals
     x0 = np.clip(best.x, problem.lower, problem.upper)
     try:
         res = least_squares(residuals, x0, bounds=(problem.lower, problem.upper), method="trf",
                             x_scale="jac", ftol=TRUST_REGION_TOL, xtol=TRUST_REGION_TOL,
                             max_nfev=TRUST_REGION_NFEV * x0.size)
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError, _Late):
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return None
     if not (np.isfinite(res.cost) and 2.0 * res.cost < float(best.cost) * (1.0 - TRUST_REGION_GAIN)):
         return None

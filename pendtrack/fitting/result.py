@@ -9,20 +9,21 @@ plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u
 ``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
 ``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
 ``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``estimates``, ``covariance``,
-``start_costs``, ``message``, ``n_starts_planned``, ``stopped``, ``flags``, ``trustworthy``,
+``start_costs``, ``message``, ``flags``, ``findings``, ``trustworthy``,
 ``measurement`` (the model's measurement terms, e.g. ``["offset"]``; their parameters, e.g.
 ``theta_off``, are in ``params`` like any other).
 Non-finite numbers are written as ``null``.
 
-Budget and flags
-----------------
-``stopped`` is ``null``, or ``"time budget"`` when ``[fit] time_budget_s`` ended the search early
-(``n_starts`` of ``n_starts_planned`` ran; ``u_paper`` and ``n_accepted`` are over the starts that
-ran) or cut the refine or uncertainty steps short (``message`` says which). ``flags`` maps a
-parameter to why its value cannot be taken as a measurement (:func:`plausibility_flags`: at an
-optimiser bound, further from the record's time scale than physics allows, not determined by
-the data). ``converged`` keeps its meaning (the optimiser's verdict); ``trustworthy`` is
-``converged`` and no flag: what the CLI and the report call a good fit.
+Flags and findings
+------------------
+``flags`` maps a parameter to why its value cannot be taken as a measurement
+(:func:`plausibility_flags`: at an optimiser bound, not determined by the data, the memory term
+acting as an added mass). ``findings`` maps a parameter to what the fit found when a term sits at
+a limit where it vanishes or becomes a simpler one (:func:`split_findings`, the terms'
+:class:`~pendtrack.models.declare.Limit` declarations): "the data show no memory; the model
+reduces to ..." -- a result about the pendulum, never a flag. ``converged`` keeps its meaning
+(the optimiser's verdict); ``trustworthy`` is ``converged`` and no flag: what the CLI and the
+report call a good fit.
 
 Information criteria
 --------------------
@@ -43,7 +44,6 @@ import numpy as np
 
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import _floor
-from pendtrack.fitting.multistart import TIME_BUDGET
 
 if TYPE_CHECKING:
     from pendtrack.config import FitConfig, ModelsConfig
@@ -149,6 +149,84 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
     if inertia and "Omega0" not in flags:
         flags["Omega0"] = inertia
     return flags
+
+
+def split_findings(terms: tuple[str, ...], names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray,
+                   lower: np.ndarray, flags: Mapping[str, str], *, t_start: float,
+                   t_end: float) -> tuple[dict[str, str], dict[str, str]]:
+    """Split ``flags`` into what is wrong and what is a finding: an effect the data do not show.
+
+    A physical term whose parameter sits at one of its limits (:class:`pendtrack.models.declare.Limit`:
+    its amplitude at 0, ``beta`` at 0, ``t0`` more than :data:`T0_MAX_RECORDS` record lengths before the
+    record or on its optimiser bound there) is absent, or is the simpler term it becomes there. That
+    parameter and the ones the data then cannot measure get a finding in place of a flag. An amplitude
+    or order is at its limit 0 when on its optimiser bound there. A value merely consistent with the
+    limit, or small, is not at it: correlated dampings (C1, C0, C2) can each lie within
+    two standard errors of 0 while together they are far from it.
+
+    Parameters
+    ----------
+    terms : tuple of str
+        The model's physical terms (catalogue names).
+    names, x, stderr, lower
+        Fitted names, values, standard errors and lower optimiser bounds (as :func:`plausibility_flags`).
+    flags : mapping
+        :func:`plausibility_flags` of the same fit.
+    t_start, t_end : float
+        The fitted window [s].
+
+    Returns
+    -------
+    flags, findings : dict
+        The flags left, and parameter name -> the finding (one sentence).
+    """
+    from pendtrack.models.declare import Limit
+    from pendtrack.models.terms import CATALOGUE
+
+    pos = {n: j for j, n in enumerate(names)}
+    duration = max(t_end - t_start, 0.0)
+
+    def reached(lim: Limit) -> str:
+        """How ``lim`` is reached (the parameter's value in words), or ""."""
+        j = pos[lim.param]
+        v, se, lo = float(x[j]), float(stderr[j]), float(lower[j])
+        on_bound = math.isfinite(lo) and abs(v - lo) <= AT_BOUND_REL * max(1.0, abs(lo))
+        if lim.value == -math.inf:
+            before = t_start - v
+            if before > T0_MAX_RECORDS * duration or on_bound:
+                return f"{lim.param} = {v:.4g} s, {before:.3g} s before the record"
+            return ""
+        if on_bound:
+            err = f" +- {se:.2g}" if math.isfinite(se) else ""
+            return f"{lim.param} = {v:.3g}{err}"
+        return ""
+
+    absent: dict[str, tuple[Limit, str]] = {}  # term -> the limit it reached, and how
+    for term in terms:
+        decl = CATALOGUE[term]
+        limits = decl.limits
+        if decl.amplitude and all(lim.param != decl.amplitude for lim in limits):
+            limits = (Limit(decl.amplitude, 0.0),) + limits
+        for lim in limits:
+            how = reached(lim) if lim.param in pos else ""
+            if how:
+                absent[term] = (lim, how)
+                break
+    reduced = [t for t in terms if t not in absent]
+    for lim, _ in absent.values():
+        if lim.nested and lim.nested not in reduced:
+            reduced.append(lim.nested)
+    reduced = [t for t in CATALOGUE if t in reduced]  # catalogue order, as model names are
+    left, findings = dict(flags), {}
+    for term, (lim, how) in absent.items():
+        what = f" (there the term is {lim.becomes})" if lim.becomes else ""
+        text = (f"the data show no {term.replace('_', ' ')}: {how}{what}; the model reduces to "
+                f"{'+'.join(['gravity', *reduced])}")
+        for name in (lim.param, *lim.unmeasured):
+            if name in pos:
+                findings[name] = text
+                left.pop(name, None)
+    return left, findings
 
 
 def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray) -> str:
@@ -275,12 +353,10 @@ class FitResult:
         ``u_paper`` or a bootstrap.
     message : str
         Why the fit did not converge, or the optimiser's last message, plus notes.
-    n_starts_planned : int
-        Starts planned; ``n_starts`` of them ran (fewer when the time budget ran out).
-    stopped : str
-        ``""``, or ``"time budget"`` if ``[fit] time_budget_s`` cut a step short (module docstring).
     flags : mapping
         Parameter name -> why its value is not a measurement (:func:`plausibility_flags`).
+    findings : mapping
+        Parameter name -> an effect the data do not show (:func:`split_findings`).
     measurement : tuple of str
         The model's measurement terms (e.g. ``("offset",)``: ``params`` has ``theta_off``).
     max_step_s : float or None
@@ -314,9 +390,8 @@ class FitResult:
     full_history: bool = False
     stderr_reliable: bool = True
     message: str = ""
-    n_starts_planned: int = 0
-    stopped: str = ""
     flags: Mapping[str, str] = field(default_factory=dict)
+    findings: Mapping[str, str] = field(default_factory=dict)
     measurement: tuple[str, ...] = ()
     max_step_s: float | None = None
 
@@ -392,9 +467,8 @@ class FitResult:
                            "matrix": [[_num(x) for x in row] for row in cov.tolist()]},
             "start_costs": [_num(c) for c in np.asarray(self.start_costs, dtype=float)],
             "message": self.message,
-            "n_starts_planned": int(self.n_starts_planned or self.n_starts),
-            "stopped": self.stopped or None,
             "flags": dict(self.flags),
+            "findings": dict(self.findings),
             "trustworthy": self.trustworthy,
             "measurement": list(self.measurement),
         }
@@ -443,14 +517,16 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
     if not follows:
         reasons.append(f"the model does not follow the oscillation (rms {rms:.3g} rad)")
     notes = []
-    if found.stopped:
-        notes.append(f"{found.stopped} reached: {len(found.outcomes)} of {found.n_planned} starts ran "
-                     f"(u_paper and n_accepted over those)")
-    if unc.cut_short:
-        notes.append(unc.cut_short)
     if not unc.reliable and cov_ok:
         notes.append(f"standard errors unreliable: they change by a factor {math.exp(unc.step_spread):.2g} with the "
                      "finite-difference step (the solver is not smooth in the parameters)")
+    floors = {n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names}
+    t_end = float(problem.t[-1])
+    flags, findings = split_findings(
+        tuple(getattr(model, "physical_terms", ())), names, x, unc.stderr, problem.lower,
+        plausibility_flags(names, x, unc.stderr, problem.lower, problem.upper, t_start=problem.t_start, t_end=t_end,
+                           floors=floors, nuisance=_measurement_params(model)),
+        t_start=problem.t_start, t_end=t_end)
     start_costs = found.costs.copy()
     start_costs[found.best_position] = best.cost if np.isfinite(best.cost) else np.inf  # the refined best
 
@@ -479,12 +555,8 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         hac_lag=unc.hac_lag, covariance=unc.covariance, fitted_names=names, start_costs=start_costs,
         memory_s=float(model_options.memory_s), full_history=bool(model_options.full_history),
         message="; ".join(reasons + notes) if reasons else "; ".join([best.message] + notes),
-        stderr_reliable=unc.reliable, n_starts_planned=found.n_planned or len(found.outcomes),
-        stopped=found.stopped or (TIME_BUDGET if best.timed_out or unc.cut_short else ""),
-        flags=plausibility_flags(names, x, unc.stderr, problem.lower, problem.upper, t_start=problem.t_start,
-                                 t_end=float(problem.t[-1]),
-                                 floors={n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names},
-                                 nuisance=_measurement_params(model)),
+        stderr_reliable=unc.reliable,
+        flags=flags, findings=findings,
         measurement=tuple(getattr(model, "measurement_terms", ())),
         max_step_s=getattr(model_options, "max_step_s", None),
     )

@@ -9,7 +9,6 @@ phase are pinned on three periods before the long record is seen), in worker pro
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +19,7 @@ from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import Setup
 from pendtrack.fitting.ladder import LadderRules, run_ladder
-from pendtrack.fitting.multistart import TIME_BUDGET, StartOutcome, draw_starts, inside_bounds, window_ladder
+from pendtrack.fitting.multistart import StartOutcome, draw_starts, inside_bounds, window_ladder
 from pendtrack.parallel import ProcessPool
 
 
@@ -38,18 +37,12 @@ class Search:
         Final costs on the whole window (non-finite ones as inf).
     best : StartOutcome
         The start with the lowest cost.
-    n_planned : int
-        Starts planned (drawn plus extra); ``len(outcomes)`` of them ran.
-    stopped : str
-        ``""``, or ``"time budget"`` if the search's deadline stopped a start or kept some from running.
     """
 
     outcomes: list[StartOutcome]
     xs: np.ndarray
     costs: np.ndarray
     best: StartOutcome
-    n_planned: int = 0
-    stopped: str = ""
 
     @property
     def best_position(self) -> int:
@@ -79,7 +72,7 @@ def ladder_growth(model: Any, options: FitConfig) -> float:
 
 def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
            extra_starts: Sequence[Mapping[str, float]] = (),
-           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+           on_progress: Callable[[int], None] | None = None,
            pool: ProcessPool | None = None) -> Search:
     """Multi-start growing-window least squares from the start ranges of ``setup`` (step 2 of a fit).
 
@@ -100,9 +93,6 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
         left out take the centre's value).
     on_progress : callable, optional
         Called with 1 after each start.
-    deadline : float
-        ``time.monotonic()`` [s] after which no start begins and running ones stop where they
-        are (:class:`pendtrack.fitting.multistart.Deadlines`); start 0, the estimate, always runs.
     pool : ProcessPool, optional
         Worker processes kept across searches (:func:`pendtrack.fitting.ladder.search_pool`); used
         instead of ``workers`` new ones.
@@ -123,9 +113,7 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
             else (problem.t_end,))
     rules = LadderRules(hopeless_ratio=hopeless_ratio(problem.model, options), merge_tol=options.merge_tol, scale=setup.half_widths)
     outcomes = run_ladder(problem, starts, ends, rules=rules, workers=workers, max_nfev=options.start_budget,
-                          on_progress=on_progress, deadline=deadline, pool=pool)
+                          on_progress=on_progress, pool=pool)
     xs = np.array([o.x for o in outcomes])
     costs = np.array([o.cost if np.isfinite(o.cost) else np.inf for o in outcomes])
-    stopped = TIME_BUDGET if len(outcomes) < len(starts) or any(o.timed_out for o in outcomes) else ""
-    return Search(outcomes=outcomes, xs=xs, costs=costs, best=outcomes[int(np.argmin(costs))],
-                  n_planned=len(starts), stopped=stopped)
+    return Search(outcomes=outcomes, xs=xs, costs=costs, best=outcomes[int(np.argmin(costs))])

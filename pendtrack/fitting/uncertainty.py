@@ -41,7 +41,7 @@ import numpy as np
 
 from pendtrack.config import FitConfig
 from pendtrack.fitting.cost import channels
-from pendtrack.fitting.multistart import TIME_BUDGET, StartOutcome, past, run_tasks
+from pendtrack.fitting.multistart import StartOutcome, run_tasks
 from pendtrack.fitting.polish import profile_sigmas
 from pendtrack.fitting.problem import FD_REL, STATE_NAMES, FitProblem
 
@@ -240,8 +240,6 @@ class Uncertainty:
     step_spread : float
         Largest ``|ln|`` ratio of the sandwich standard errors with 10x larger finite-difference
         steps to the ordinary ones (inf if not finite) [1].
-    cut_short : str
-        What the time budget left out (``""``: nothing), e.g. ``"profile sigmas of G2"``.
     """
 
     covariance: np.ndarray
@@ -255,7 +253,6 @@ class Uncertainty:
     stderr_high: np.ndarray
     stderr_bootstrap: np.ndarray
     step_spread: float
-    cut_short: str = ""
 
     @property
     def reliable(self) -> bool:
@@ -264,7 +261,7 @@ class Uncertainty:
 
 
 def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: FitConfig, seed: int, workers: int,
-           on_progress: Callable[[int], None] | None = None, deadline: float = math.inf,
+           on_progress: Callable[[int], None] | None = None,
            pool: Executor | None = None) -> Uncertainty:
     """The uncertainties of the refined best fit (step 4 of a fit).
 
@@ -284,9 +281,6 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
         Processes for the bootstrap refits.
     on_progress : callable, optional
         Called with 1 after each bootstrap refit.
-    deadline : float
-        ``time.monotonic()`` [s] after which no profile or bootstrap refit starts (the fit's
-        time budget; what it left out is in ``cut_short``). The sandwich is always computed.
     pool : Executor, optional
         Worker processes kept by the caller (the search's): the profile sigmas' sides run there.
     """
@@ -310,34 +304,26 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     se_naive = stderr_from_cov(naive_covariance(jac, r))
     nan = np.full(x.size, np.nan)
     se_low, se_high = nan, nan
-    cut: list[str] = []
     if options.profile:
         profiled = [nm for nm in problem.names if nm not in STATE_NAMES]
-        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive, profiled, deadline=deadline,
-                                          executor=pool)
-        if past(deadline):
-            cut.append("profile sigmas")
+        se_low, se_high = profile_sigmas(problem, x, float(best.cost), cov, se_naive, profiled, executor=pool)
     se_boot = nan
     if options.bootstrap > 0:
         block = max(lag, problem.observation.savgol_window, 1)
-        se_boot, n_boot = _bootstrap(problem, x, options.bootstrap, block, seed, workers, on_progress, deadline)
-        if n_boot < options.bootstrap:
-            cut.append(f"bootstrap ({n_boot} of {options.bootstrap} refits)")
+        se_boot = _bootstrap(problem, x, options.bootstrap, block, seed, workers, on_progress)
     return Uncertainty(covariance=cov, hac_lag=int(lag), stderr=stderr_from_cov(cov), stderr_naive=se_naive,
                        u_paper=u_paper, u_region=region_halfwidth(jac, best.cost, options.accept_ratio),
                        n_accepted=int(accepted.sum()), stderr_low=se_low, stderr_high=se_high,
-                       stderr_bootstrap=se_boot, step_spread=step_spread,
-                       cut_short=f"{TIME_BUDGET} reached: {', '.join(cut)} incomplete" if cut else "")
+                       stderr_bootstrap=se_boot, step_spread=step_spread)
 
 
 def _bootstrap(problem: FitProblem, x: np.ndarray, n_boot: int, block: int, seed: int, workers: int,
-               on_progress: Callable[[int], None] | None, deadline: float) -> tuple[np.ndarray, int]:
-    """Standard deviation of block-bootstrap refits started at the best fit, and how many finished."""
+               on_progress: Callable[[int], None] | None) -> np.ndarray:
+    """Standard deviation of block-bootstrap refits started at the best fit."""
     problems = bootstrap_problems(problem, x, n_boot, block, seed + 1)
     tasks = [(p, x, (problem.t_end,)) for p in problems]
-    outs = [o for o in run_tasks(tasks, workers=workers, on_progress=on_progress, deadline=deadline)
-            if not o.timed_out]
+    outs = run_tasks(tasks, workers=workers, on_progress=on_progress)
     xb = np.array([o.x for o in outs if np.isfinite(o.cost)])
     if xb.shape[0] < 2:
-        return np.full(x.size, np.nan), len(outs)
-    return xb.std(axis=0, ddof=1), len(outs)
+        return np.full(x.size, np.nan)
+    return xb.std(axis=0, ddof=1)

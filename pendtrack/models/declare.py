@@ -95,6 +95,37 @@ class ParamSpec:
 
 
 @dataclass(frozen=True)
+class Limit:
+    """A limit of one parameter where its term is absent, or becomes a simpler term.
+
+    A fit that ends at such a limit has found that the data show no such effect: a finding
+    about the pendulum, not a failure of the fit (:func:`pendtrack.fitting.result.split_findings`).
+
+    Attributes
+    ----------
+    param : str
+        The parameter that reaches the limit.
+    value : float
+        The limit [the parameter's unit]: ``0.0`` for an amplitude or an order, ``-inf`` for a
+        time origin infinitely far before the record.
+    becomes : str
+        What the term is at the limit, in words (e.g. ``"a plain power-law drag"``); ``""`` when
+        it simply vanishes.
+    nested : str
+        The catalogue term the model then reduces to in place of this one (``""``: none).
+    unmeasured : tuple of str
+        The term's other parameters, which the data cannot measure at the limit (the exponents of
+        a vanished amplitude, the amplitude of a damping whose time origin is infinitely far).
+    """
+
+    param: str
+    value: float
+    becomes: str = ""
+    nested: str = ""
+    unmeasured: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class Slot:
     """One entry of the packed coefficient vector (``K_<name>`` in the layout).
 
@@ -149,6 +180,9 @@ class Term:
         A measurement term that adds a constant to the angle (``theta_obs = theta + c``): its
         slope in theta is exactly 1, so the observed angular velocity is the model's
         (:meth:`pendtrack.models.registry.Model.observe_state` skips the difference quotient).
+    limits : tuple of Limit
+        Where the term is absent or reduces to a simpler one, beyond its amplitude at 0
+        (:class:`Limit`).
     """
 
     name: str
@@ -163,6 +197,7 @@ class Term:
     always: bool = False
     dfn: Callable | None = None
     shift: bool = False
+    limits: tuple[Limit, ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:

@@ -1230,3 +1230,14 @@ def pc_kernel_nb():  # noqa: ANN201
     if "pc" not in _NB:
         _compile()
     return _NB["pc"]
+
+
+def compile_kernels() -> None:
+    """Compile every numba kernel now (or load it from numba's on-disk cache).
+
+    ``make setup`` calls it, so a fresh clone's first run does not compile; results never depend
+    on it (a fit counts its work, not its seconds), only the first run's wall time does.
+    """
+    rk_kernel_nb()
+    pc_kernel_nb()
+    rk_sens_kernel_nb()

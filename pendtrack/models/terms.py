@@ -24,10 +24,10 @@ import math
 
 import numpy as np
 
-from pendtrack.models.declare import Layout, ParamSpec, Slot, Term
+from pendtrack.models.declare import Layout, Limit, ParamSpec, Slot, Term
 
-__all__ = ["BASE", "CATALOGUE", "TERMS", "MEASUREMENT_TERMS", "PARAMS", "LAYOUT", "N_COEFFS", "ParamSpec", "Term",
-           "Slot", "empty_coeffs"]
+__all__ = ["BASE", "CATALOGUE", "TERMS", "MEASUREMENT_TERMS", "PARAMS", "LAYOUT", "N_COEFFS", "Limit", "ParamSpec",
+           "Term", "Slot", "empty_coeffs"]
 
 INF = math.inf
 
@@ -171,7 +171,8 @@ CATALOGUE: dict[str, Term] = {
               _p("p", "1", 0.0, INF, True, True, "power-law exponent, eq. powerlawdiss")),
              "-C3 |omega/Omega0|^p sgn(omega)", "powerlawdiss",
              slots=(Slot("POW"), Slot("POW_EXP", 1.0), Slot("POW_SCALE", 1.0, "1/Omega0")),
-             pack=lambda p: {"POW": p["C3"], "POW_EXP": p["p"], "POW_SCALE": 1.0 / p["Omega0"]}, fn=_power_drag, dfn=_power_drag_d),
+             pack=lambda p: {"POW": p["C3"], "POW_EXP": p["p"], "POW_SCALE": 1.0 / p["Omega0"]}, fn=_power_drag, dfn=_power_drag_d,
+             limits=(Limit("C3", 0.0, unmeasured=("p",)),)),
         Term("added_mass", "smooth", (_positive("Ca", "1", "added-mass coefficient, eq. ainerdef"),),
              "+Ca omega^2 sin(theta)", "ainerdef",
              slots=(Slot("ADDED"),), pack=lambda p: {"ADDED": p["Ca"]}, fn=_added_mass, dfn=_added_mass_d, always=True),
@@ -180,7 +181,10 @@ CATALOGUE: dict[str, Term] = {
               _p("t0", "s", -INF, INF, True, True, "time origin of the C4/(t - t0) damping (must be < t[0]), eq. newDNHM")),
              "-C4 omega/(t - t0)", "newDNHM",
              slots=(Slot("TV"), Slot("TV_T0", -INF)), pack=lambda p: {"TV": p["C4"], "TV_T0": p["t0"]},
-             fn=_time_varying_damping, dfn=_time_varying_damping_d, domain=_t0_before),
+             fn=_time_varying_damping, dfn=_time_varying_damping_d, domain=_t0_before,
+             # t0 -> -inf: C4/(t - t0) is constant over the record, a plain viscous damping of rate C4/(t - t0)
+             limits=(Limit("C4", 0.0, unmeasured=("t0",)),
+                     Limit("t0", -INF, "a constant viscous damping", "viscous", unmeasured=("C4",)))),
         Term("opa_coulomb", "friction",
              (_positive("C5", "1/s", "OPA Coulomb coefficient (acts as 2 Omega0 C5), eq. newDNHM"),),
              "-2 Omega0 C5 sgn(omega)", "newDNHM",
@@ -203,7 +207,10 @@ CATALOGUE: dict[str, Term] = {
                     Slot("MEM_U", 1.0, "2 Omega0 (omega -> A_omega)"), Slot("TSCALE", 1.0, "2 Omega0 (t -> t*)"),
                     Slot("HAS_MEMORY", 0.0, "1: the model has the memory term (the paper's PC scheme)")),
              pack=lambda p: {"MEM": 4.0 * p["Omega0"] * p["Omega0"] * p["G2"], "BETA": p["beta"], "PF": p["p_f"],
-                             "MEM_U": 2.0 * p["Omega0"], "TSCALE": 2.0 * p["Omega0"], "HAS_MEMORY": 1.0}),
+                             "MEM_U": 2.0 * p["Omega0"], "TSCALE": 2.0 * p["Omega0"], "HAS_MEMORY": 1.0},
+             # beta -> 0: D^0 is the identity, the term is G2 A|A|^(p_f - 1), a power-law drag without memory
+             limits=(Limit("G2", 0.0, unmeasured=("beta", "p_f")),
+                     Limit("beta", 0.0, "a plain power-law drag", "power_drag"))),
         # measurement terms, applied in this order: the camera's zero, then its angle scale
         Term("offset", "measurement",
              (_p("theta_off", "rad", -INF, INF, True, True, "offset of the measured angle's zero"),),

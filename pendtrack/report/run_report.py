@@ -106,8 +106,8 @@ def drift_statement(run: RunData) -> tuple[str | None, Note | None]:
 
 
 def fit_notes(run: RunData) -> list[Note]:
-    """One note per fit that is not trustworthy: not converged, parameters flagged (fit.json
-    ``flags``), or stopped by the time budget (``stopped``, starts run of planned)."""
+    """One note per fit that is not trustworthy (not converged, parameters flagged: fit.json ``flags``),
+    and one, neutral, per fit that found an effect absent (fit.json ``findings``)."""
     notes = []
     for name, fit in run.fits.items():
         if not isinstance(fit, dict):
@@ -120,10 +120,9 @@ def fit_notes(run: RunData) -> list[Note]:
             parts.append("its values are not measurements: " + "; ".join(f"{k} {v}" for k, v in flags.items()))
         if parts:
             notes.append(Note(f"The {name} fit is not trustworthy: {' '.join(parts)}.", kind="error"))
-        if fit.get("stopped"):
-            notes.append(Note(f"The {name} fit was stopped by the {fit['stopped']}: {fit.get('n_starts')} of "
-                              f"{fit.get('n_starts_planned')} starts ran; u_paper is over those "
-                              "([fit] time_budget_s).", kind="info"))
+        found = sorted(set((fit.get("findings") or {}).values()))
+        if found:
+            notes.append(Note(f"The {name} fit: {'; '.join(found)}.", kind="info"))
     return notes
 
 

@@ -163,7 +163,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
     -------
     StageOutput
         ``paths``: fit.json, fit.parquet, then the per-model files. ``facts``: ``models``
-        (per model: converged, trustworthy, flags, stopped, n_starts, n_starts_planned, xi2_min,
+        (per model: converged, trustworthy, flags, findings, n_starts, xi2_min,
         rms, bic, Omega0, Omega0_stderr, fitted_model, theta_off, theta_off_stderr (None
         without the offset term), runtime_s, message), ``not_converged``, ``flagged`` (model ->
         flags), ``selected``, ``files``, ``zero_reference``.
@@ -246,7 +246,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         cross = cross_model_relations(results[classic], results[fractional]).to_dict()
     facts: dict[str, Any] = {
         "models": {n: {"converged": r.converged, "trustworthy": r.trustworthy, "flags": dict(r.flags),
-                       "stopped": r.stopped or None, "n_starts": r.n_starts, "n_starts_planned": r.n_starts_planned,
+                       "findings": dict(r.findings), "n_starts": r.n_starts,
                        "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
                        "Omega0": _num(r.params["Omega0"].value) if "Omega0" in r.params else None,
                        "Omega0_stderr": _num(r.params["Omega0"].stderr) if "Omega0" in r.params else None,
