@@ -242,7 +242,7 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 
 
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
-@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "uneven", "y_axis"])
+@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -256,11 +256,11 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
         fragments = (str(src), "--columns names 2 columns, the table has 3")
-    elif case == "uneven":  # two samples a fifth of a step apart: not jitter
+    elif case == "repeated":  # a repeated time: the only times refused are unusable ones
         t = T.copy()
-        t[100] = t[99] + 0.2 / RATE
+        t[100] = t[99]
         src.write_text(_lines(t, THETA))
-        fragments = (str(src), "too uneven")
+        fragments = (str(src), "a repeated time: t[100]")
     else:  # y down, read as y up: the bob would be above its pivot
         src.write_text("t x y\n" + _lines(T, X, -Y))
         fragments = (str(src), "above the pivot", "y_down")
