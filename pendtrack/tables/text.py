@@ -2,10 +2,10 @@
 
 Layout
 ------
-Blank lines and lines starting with ``#`` or ``%`` are skipped. The first line whose fields are
-all numbers (or empty) starts the data; the lines before it are the preamble. The data's
-separator is a tab, a semicolon, a comma or white space (the first that splits the first data
-line into numbers), with a decimal comma accepted after a tab, semicolon or space (phyphox's and
+Blank lines and lines starting with ``#`` or ``%`` are skipped. The first line that starts with a
+number starts the data; the lines before it are the preamble. The data's
+separator is a tab, a semicolon, a comma or white space (the one that splits the first data
+line into the most numbers and fewest other cells), with a decimal comma accepted after a tab, semicolon or space (phyphox's and
 European spreadsheets' exports). Empty cells are missing values: a row whose used cells are
 all empty is skipped (a shorter run beside a longer one), a missing theta, x or y makes the row
 not ok, a missing time with values is an error.
@@ -46,16 +46,20 @@ def _cells(line: str, sep: str | None, decimal_comma: bool) -> list[str]:
 
 
 def _layout(line: str) -> tuple[str | None, bool] | None:
-    """The separator and decimal comma that split ``line`` into numbers (or empty cells), or None."""
+    """The separator and decimal comma that split a data line into the most numbers (fewest other
+    cells), its first cell a number; None if ``line`` is no data line."""
+    best, score = None, -1
     for sep, comma in _LAYOUTS:
-        if sep is not None and sep not in line:
-            continue
-        if comma and "," not in line:
+        if (sep is not None and sep not in line) or (comma and "," not in line):
             continue
         cells = _cells(line, sep, comma)
-        if any(cells) and all(not c or _NUMBER_RE.match(c) for c in cells):
-            return sep, comma
-    return None
+        if not cells or not _NUMBER_RE.match(cells[0]):
+            continue
+        numbers = sum(1 for c in cells if c and _NUMBER_RE.match(c))
+        value = numbers - sum(1 for c in cells if c and not _NUMBER_RE.match(c))
+        if value > score:
+            best, score = (sep, comma), value
+    return best
 
 
 def header_fields(line: str) -> list[str]:
