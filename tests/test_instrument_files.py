@@ -8,16 +8,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from scipy.interpolate import CubicSpline
 
 from pendtrack.artifacts import read_artifact
-from pendtrack.cli import cli
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import read_input
 from pendtrack.tables import TableSpec, parse_column_name, read_record
 from pendtrack.tables.trk import image_to_world
+from test_tables import _one_line_error, invoke
 
 RATE = 60.0
 SWING = {"Omega0": 5.0, "C1": 0.1, "C0": 0.05, "C2": 0.05}
@@ -33,27 +32,16 @@ def _rows(*cols: np.ndarray, sep: str = ",", fmt=repr) -> str:
     return "".join(sep.join(fmt(float(v)) for v in row) + "\n" for row in zip(*cols))
 
 
-def invoke(*args: str):
-    return CliRunner().invoke(cli, list(args))
-
-
-def _one_line_error(res, *fragments: str) -> str:
-    assert res.exit_code == 2, res.output
-    lines = [line for line in res.output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
-    for f in fragments:
-        assert f in lines[0], lines[0]
-    return lines[0]
-
-
 # --- names and units ----------------------------------------------------------------------
 
 @pytest.mark.parametrize("label, role, scale, unit", [
     ("t_s", "t", 1.0, "s"), ("time (s)", "t", 1.0, "s"), ("Time [ms]", "t", 1e-3, "ms"),
-    ("t_us", "t", 1e-6, "µs"), ("t (µs)", "t", 1e-6, "µs"), ("T [μs]", "t", 1e-6, "µs"), ("t [min]", "t", 60.0, "min"),
+    ("t_us", "t", 1e-6, "µs"), ("t (µs)", "t", 1e-6, "µs"), ("T [μs]", "t", 1e-6, "µs"),
+    ("t [min]", "t", 60.0, "min"),
     ("theta1_rad", "theta", 1.0, "rad"), ("Angle (°)", "theta", math.pi / 180, "°"),
     ("angle_deg", "theta", math.pi / 180, "deg"), ("theta [mrad]", "theta", 1e-3, "mrad"),
-    ("VideoAnalysis: Time (s)", "t", 1.0, "s"), ('"Time (s)"', "t", 1.0, "s"), ("Run 1: Angle (°)", "theta", math.pi / 180, "°"),
+    ("VideoAnalysis: Time (s)", "t", 1.0, "s"), ('"Time (s)"', "t", 1.0, "s"),
+    ("Run 1: Angle (°)", "theta", math.pi / 180, "°"),
     ("Latest: Time (s)", "t", 1.0, "s"), ("angle 1", "theta", 1.0, ""), ("x1", "x", 1.0, ""),
     ("VideoAnalysis: X (m)", "x", 1.0, "m"), ("x [cm]", "x", 0.01, "cm"), ("y_down [px]", "y", 1.0, "px"),
     ("Angle (deg)", "theta", math.pi / 180, "deg"),
@@ -253,7 +241,8 @@ def test_tracker_data_export_more_columns(tmp_path):
     src = tmp_path / "export.csv"
     theta_r = np.degrees(np.arctan2(Y, X))
     src.write_text("mass A\nt,x,y,r,θ_{r},v_{x},θ\n" + "".join(
-        f"{a!r},{b!r},{c!r},{math.hypot(b, c)!r},{d!r},{e},{d!r}\n" for a, b, c, d, e in zip(T.tolist(), X.tolist(), Y.tolist(), theta_r.tolist(), cells)))
+        f"{a!r},{b!r},{c!r},{math.hypot(b, c)!r},{d!r},{e},{d!r}\n"
+        for a, b, c, d, e in zip(T.tolist(), X.tolist(), Y.tolist(), theta_r.tolist(), cells)))
     rec = read_input(src)
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
 

@@ -259,7 +259,7 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         t = T.copy()
         t[100] = t[99]
         src.write_text(_lines(t, THETA))
-        fragments = (str(src), "a repeated time: t[100]")
+        fragments = (str(src), "a repeated time, t[100]")
     else:  # y down, read as y up: the bob would be above its pivot
         src.write_text("t x y\n" + _lines(T, X, -Y))
         fragments = (str(src), "above the pivot", "y_down")

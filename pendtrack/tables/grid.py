@@ -190,7 +190,8 @@ def resample_irregular(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, columns
     nearest: list[np.ndarray] = []
     spacing = 0.0
     for run in runs:
-        k = np.arange(math.ceil((t[run[0]] - origin) / step - 1e-9), math.floor((t[run[-1]] - origin) / step + 1e-9) + 1)
+        first, last = (t[run[0]] - origin) / step, (t[run[-1]] - origin) / step
+        k = np.arange(math.ceil(first - 1e-9), math.floor(last + 1e-9) + 1)  # grid points inside the run
         if k.size == 0:
             continue
         tk = origin + step * k

@@ -210,8 +210,8 @@ def _check_times(t: np.ndarray, path: Path) -> None:
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0))
         what = "a repeated time" if steps[i] == 0 else "time going back"
-        raise ArtifactError(f"{what}: t[{i + 1}] = {t[i + 1]:g} s after t[{i}] = {t[i]:g} s (times must increase "
-                            "strictly)", path=path)
+        raise ArtifactError(f"time must be strictly increasing (times must increase strictly): {what}, t[{i + 1}] = "
+                            f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s", path=path)
 
 
 def _check_units(raw: dict[str, Any], path: Path) -> None:

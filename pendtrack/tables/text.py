@@ -5,10 +5,10 @@ Layout
 Blank lines and lines starting with ``#`` or ``%`` are skipped. The first line that starts with a
 number starts the data; the lines before it are the preamble. The data's
 separator is a tab, a semicolon, a comma or white space (the one that splits the first data
-line into the most numbers and fewest other cells), with a decimal comma accepted after a tab, semicolon or space (phyphox's and
-European spreadsheets' exports). Empty cells are missing values: a row whose used cells are
-all empty is skipped (a shorter run beside a longer one), a missing theta, x or y makes the row
-not ok, a missing time with values is an error.
+line into the most numbers and fewest other cells), with a decimal comma accepted after a tab,
+semicolon or space (phyphox's and European spreadsheets' exports). Empty cells are missing
+values: a row whose used cells are all empty is skipped (a shorter run beside a longer one), a
+missing theta, x or y makes the row not ok, a missing time with values is an error.
 
 Header
 ------

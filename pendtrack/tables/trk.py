@@ -76,7 +76,7 @@ def _track(panel: ET.Element, name: str | None) -> ET.Element:
     tracks = _prop(panel, "tracks")
     masses = [o for o in ([] if tracks is None else [_object(p) for p in tracks.findall("property")])
               if o is not None and o.get("class") == POINT_MASS]
-    names = [(_prop(o, "name").text or "") if _prop(o, "name") is not None else "" for o in masses]  # type: ignore[union-attr]
+    names = [(getattr(_prop(o, "name"), "text", None) or "") for o in masses]
     if name is not None:
         if name not in names:
             raise ConfigError(f"no point-mass track named {name!r} (tracks: {', '.join(map(repr, names)) or 'none'})")
