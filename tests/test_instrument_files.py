@@ -80,6 +80,17 @@ def test_encoder_log_in_degrees_is_an_error_then_reads_with_the_unit(tmp_path):
     assert kin.provenance.extra["input"]["columns"] == ["t", "theta[deg]"]
 
 
+def test_parquet_in_degrees_names_the_column_to_rename(tmp_path):
+    import pandas as pd
+
+    src = tmp_path / "angles.parquet"
+    pd.DataFrame({"t": T, "theta": np.degrees(THETA)}).to_parquet(src)
+    with pytest.raises(ArtifactError, match=r"looks like degrees: name the Parquet column 'theta \[deg\]'"):
+        read_record(src)
+    pd.DataFrame({"t": T, "theta [deg]": np.degrees(THETA)}).to_parquet(src)
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+
+
 def test_encoder_log_degrees_in_the_header(tmp_path):
     src = tmp_path / "encoder.csv"
     src.write_text("t_s,angle_deg\n" + _rows(T, np.degrees(THETA)))
@@ -376,3 +387,16 @@ def test_real_records_read_without_unit_errors():
         pytest.skip("real data not found")
     rec = read_record(real / "lab2_trial1_rawdata.txt")  # 66 deg swings in rad, phone times
     assert rec.t.size == 500 and rec.warnings == () and np.max(np.abs(rec.theta)) < math.pi / 2
+
+
+def test_unit_checks_without_turning_points():
+    from pendtrack.tables.checks import theta_not_radians, time_not_seconds
+
+    t = np.arange(300) / 60.0
+    spin = 12.0 * t  # over the top, never turning back: 60 (degrees?) in 5 s, beyond two turns in rad
+    assert "without turning back twice" in (theta_not_radians(spin) or "")
+    assert theta_not_radians(np.clip(spin, 0, 4 * math.pi - 0.1)) is None  # under two turns: plausible in rad
+    # a record sampled 20 "s" apart cannot be a pendulum's in seconds: 20 ms, in ms
+    assert time_not_seconds(t * 1200.0, spin) == ("the time column has a sample step of 20, too long for seconds",
+                                                  "ms")
+    assert time_not_seconds(t, spin) is None

@@ -239,8 +239,10 @@ def _check_units(raw: dict[str, Any], path: Path) -> None:
                 fix["theta"] = "deg"
     if problems:
         header = ", ".join(f"'{r} [{u}]'" for r, u in fix.items())
-        raise ArtifactError(f"{'; '.join(problems)}: declare the unit{'s' if len(fix) > 1 else ''} with --columns "
-                            f"{columns_hint(cols, found, **fix)} (or in the header: {header})", path=path)
+        units = f"unit{'s' if len(fix) > 1 else ''}"
+        how = (f"name the Parquet column{'s' if len(fix) > 1 else ''} {header}" if raw["kind"] == "parquet" else
+               f"declare the {units} with --columns {columns_hint(cols, found, **fix)} (or in the header: {header})")
+        raise ArtifactError(f"{'; '.join(problems)}: {how}", path=path)
 
 
 def _read_parquet(path: Path, spec: TableSpec) -> dict[str, Any]:
