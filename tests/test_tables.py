@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import logging
 import math
 import subprocess
 import sys
@@ -242,7 +241,7 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 
 
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
-@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "uneven", "y_axis"])
+@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -256,11 +255,11 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
         fragments = (str(src), "--columns names 2 columns, the table has 3")
-    elif case == "uneven":  # two samples a fifth of a step apart: not jitter
+    elif case == "repeated":  # a repeated time: the only times refused are unusable ones
         t = T.copy()
-        t[100] = t[99] + 0.2 / RATE
+        t[100] = t[99]
         src.write_text(_lines(t, THETA))
-        fragments = (str(src), "too uneven")
+        fragments = (str(src), "a repeated time, t[100]")
     else:  # y down, read as y up: the bob would be above its pivot
         src.write_text("t x y\n" + _lines(T, X, -Y))
         fragments = (str(src), "above the pivot", "y_down")
@@ -290,13 +289,20 @@ def test_xy_path_too_short_to_fit_its_pivot(tmp_path):
 
 # --- warnings -----------------------------------------------------------------------------
 
-def test_degrees_given_as_radians_warns(tmp_path, caplog):
+def test_degrees_without_a_unit_are_an_error_naming_the_fix(tmp_path):
     src = tmp_path / "deg.txt"
     src.write_text(_lines(T, np.degrees(THETA)))
-    with caplog.at_level(logging.WARNING, logger="pendtrack.tables"):
-        rec = read_record(src)
-    assert len(rec.warnings) == 1 and "looks like degrees" in rec.warnings[0]
-    assert any("looks like degrees" in r.getMessage() and str(src) in r.getMessage() for r in caplog.records)
+    with pytest.raises(ArtifactError, match=r"looks like degrees: declare the unit with --columns t,theta\[deg\]"):
+        read_record(src)
+    # declared, it reads as the radians it is
+    rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-12)
+    # and a rotating pendulum (a swing beyond a full turn is possible) declares rad
+    turns = 4.0 * THETA  # swings of up to 8 rad
+    src.write_text(_lines(T, turns))
+    with pytest.raises(ArtifactError, match="not radians"):
+        read_record(src)
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[rad]"))).theta, turns, atol=0)
 
 
 def test_position_given_as_theta_warns(tmp_path):
@@ -315,16 +321,16 @@ def test_plausible_angles_do_not_warn():
 
 
 def test_cli_prints_the_warning_and_records_it(tmp_path):
-    src = tmp_path / "deg.txt"
-    src.write_text(_lines(T, np.degrees(THETA)))
+    src = tmp_path / "x.txt"
+    src.write_text(_lines(T, X + 0.5))
     out = tmp_path / "o"
     env_path = str(ROOT)
     proc = subprocess.run([sys.executable, "-m", "pendtrack", "kinematics", str(src), "--out", str(out), "-q"],
                           capture_output=True, text=True, env={"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin"})
     assert proc.returncode == 0, proc.stderr
-    assert "looks like degrees" in proc.stderr and str(src) in proc.stderr
+    assert "looks like a position" in proc.stderr and str(src) in proc.stderr
     extra = (read_metadata(out / "kinematics.parquet") or {})["extra"]
-    assert any("looks like degrees" in w for w in extra["input"]["warnings"])
+    assert any("looks like a position" in w for w in extra["input"]["warnings"])
 
 
 # --- time stamps --------------------------------------------------------------------------

@@ -23,7 +23,7 @@ def _effects(value: str | None) -> tuple[str, ...] | None:
                    "default: every catalogue effect the baseline lacks.")
 @common_options(default_out="results")
 def discover(source: str, baseline: str | None, effects: str | None, columns: tuple[str, ...] | None,
-             pivot: tuple[float, float] | None, common: CommonArgs) -> None:
+             pivot: tuple[float, float] | None, track: str | None, common: CommonArgs) -> None:
     """Show what the baseline model gets wrong, name the cause, extend the model, measure the gain.
 
     INPUT is an angle or kinematics Parquet file, a Parquet file or CSV/whitespace table of
@@ -34,7 +34,7 @@ def discover(source: str, baseline: str | None, effects: str | None, columns: tu
     from pendtrack.stages.discover import discover_stage
 
     out = discover_stage(source, out_dir=common.out, config=common.config, baseline=baseline,
-                         effects=_effects(effects), table=table_spec(columns, pivot), force=common.force,
+                         effects=_effects(effects), table=table_spec(columns, pivot, track), force=common.force,
                          progress=common.progress)
     facts = out.facts
     state = "up to date" if out.skipped else "done"

@@ -29,7 +29,7 @@ def _fmt(x: Any, spec: str) -> str:
 @click.option("--workers", type=int, default=None, help="Processes for the starts; 0 = all cores.")
 @common_options()
 def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_starts: int | None, seed: int | None,
-        workers: int | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
+        workers: int | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None, track: str | None,
         common: CommonArgs) -> None:
     """Fit physical models to KINEMATICS -> OUT/fit.json, fit_<model>.json, fit.parquet.
 
@@ -48,7 +48,7 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
     values = {"cost": cost, "n_starts": n_starts, "seed": seed, "workers": workers}
     config = apply_flags(common.config, "fit", **values)
     res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
-                    table=table_spec(columns, pivot), force=common.force, progress=common.progress)
+                    table=table_spec(columns, pivot, track), force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")
     echo_fit_summary(res.facts)

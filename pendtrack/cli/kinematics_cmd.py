@@ -24,23 +24,27 @@ def _columns(ctx: click.Context, param: click.Parameter, value: str | None) -> t
 
 
 def table_options(fn: F) -> F:
-    """``--columns`` and ``--pivot`` (:class:`pendtrack.tables.TableSpec`): keywords ``columns, pivot``."""
+    """``--columns``, ``--pivot`` and ``--track`` (:class:`pendtrack.tables.TableSpec`): keywords
+    ``columns, pivot, track``."""
+    fn = click.option("--track", default=None, metavar="NAME",
+                      help="The point-mass track of a Tracker project (.trk) with several.")(fn)
     fn = click.option("--pivot", type=float, nargs=2, default=None, metavar="X Y",
                       help="Pivot of a t, x, y table, in its units (x right, y up; a column y_down points down). "
                            "Default: the centre of a robust circle fit to the path.")(fn)
     return click.option("--columns", callback=_columns, default=None, metavar="NAMES",
-                        help="What a table's columns are, comma-separated, _ to ignore one: t,theta,_ or t,x,y "
-                             "(units: theta_deg, 'theta [deg]', t_ms). Needed for a table of more than two "
-                             "columns without a header; overrides a header.")(fn)
+                        help="What a table's columns are, comma-separated, _ to ignore one: t,theta,_ or t,x,y, "
+                             "with units: t[ms],theta[deg] (s, ms, us, min; rad, deg, mrad; m, cm, mm, px). "
+                             "Needed for a table of more than two columns without a header; overrides a "
+                             "header.")(fn)
 
 
-def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | None) -> Any:
-    """The :class:`pendtrack.tables.TableSpec` of the table flags (None if neither is given)."""
+def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | None, track: str | None = None) -> Any:
+    """The :class:`pendtrack.tables.TableSpec` of the table flags (None if none is given)."""
     from pendtrack.tables import TableSpec
 
-    if columns is None and not pivot:
+    if columns is None and not pivot and track is None:
         return None
-    return TableSpec(columns=columns, pivot=tuple(pivot) if pivot else None)
+    return TableSpec(columns=columns, pivot=tuple(pivot) if pivot else None, track=track)
 
 
 @click.command("kinematics")
@@ -54,19 +58,20 @@ def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | Non
 @common_options()
 def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int | None, max_gap_s: float | None,
                min_segment_s: float | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
-               common: CommonArgs) -> None:
+               track: str | None, common: CommonArgs) -> None:
     """Savitzky-Golay omega, alpha and the initial analysis of ANGLE -> OUT/kinematics.parquet.
 
-    ANGLE is angle.parquet, a Parquet file or a CSV/whitespace table of t [s], theta [rad] (or
-    t, x, y with a pivot), read by its header's column names; slightly uneven time stamps are
-    resampled onto a uniform grid (recorded in the provenance).
+    ANGLE is angle.parquet, a Parquet file, a text table of t, theta (or t, x, y with a pivot:
+    CSV, tab or space separated; Tracker, Vernier and phyphox exports) or a Tracker project
+    (.trk), read by its column names and units; uneven time stamps are resampled onto a
+    uniform grid (recorded in the provenance with the error bound).
     """
     from pendtrack.stages.kinematics import kinematics_stage
 
     values: dict[str, Any] = {"savgol_window_s": savgol_window_s, "savgol_order": savgol_order,
                               "max_gap_s": max_gap_s, "min_segment_s": min_segment_s}
     config = apply_flags(common.config, "kinematics", **values)
-    res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot),
+    res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot, track),
                            force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")

@@ -1,0 +1,70 @@
+"""One reader of the angle records that `kinematics`, `fit` and `discover` take.
+
+Accepted files
+--------------
+* pendtrack artifacts: ``angle.parquet``, ``kinematics.parquet`` (its ``omega``, ``alpha`` and
+  ``segment`` come along) and ``truth.parquet``; rows with ``ok = false`` are kept, flagged;
+* any other Parquet file, read by its column names as a text table's header is, with an
+  optional boolean ``ok``;
+* text tables (:mod:`pendtrack.tables.text`): CSV, semicolon, tab or white-space separated, a
+  decimal comma after a tab, semicolon or space; a plain log (``Time,Angle``, a headerless
+  encoder log), Tracker's data export (File > Export > Data: the track name, then ``t  x  y …``),
+  Vernier Logger Pro and Video Analysis CSV (``"Latest: Time (s)"``, ``"VideoAnalysis: X (m)"``)
+  and text exports (``Vernier Format 2``), phyphox CSV (``"Time (s)","Angle (deg)"``);
+* Tracker project files ``.trk`` (:mod:`pendtrack.tables.trk`): the point-mass track in the
+  project's calibrated world units, timed by its video clip.
+
+Columns and units
+-----------------
+Columns are read **by name** (:mod:`pendtrack.tables.units`): ``t``/``time``/``timestamp``,
+``theta``/``θ``/``angle``/``ang``/``phi``, ``x``, ``y`` (y up), ``y_down`` (y down); indexed names
+(``theta1``, ``x 1``) when there is one of a kind; a data-set prefix (``Run 1: Time (s)``) is
+read, and several data sets are an error naming the ``--columns`` that picks the first. Units follow
+the name in brackets or parentheses or after ``_`` (``t_s``, ``Time [ms]``, ``theta1_rad``,
+``Angle (°)``): s, ms, us/µs, ns, min; rad, mrad, deg/°; m, cm, mm, px. ``--columns`` names
+every column (``t[us],theta[deg]``, ``_`` to ignore one) and overrides a header. Without a
+header, two columns are ``t [s], theta [rad]``; more are refused unless ``--columns`` names them.
+
+A column without a unit is read in s or rad, and checked (:mod:`pendtrack.tables.checks`):
+a theta that swings more than a full turn between two turning points is not in rad, and a time
+column whose swing period is beyond 100 "s" is not in s. Both are errors that name the
+``--columns`` to give; a declared unit is taken as declared.
+
+x, y convention
+---------------
+``x`` to the right and ``y`` **up** (a lab's or Tracker's world axes); a column named ``y_down``
+points down (image pixels). With the pivot ``(px, py)`` in the same units::
+
+    theta = atan2(x - px, py - y)      (y up)        theta = atan2(x - px, y - py)   (y_down)
+
+0 when the bob hangs straight below the pivot, positive at larger x, unwrapped. The pivot is
+:class:`TableSpec` ``pivot`` (``--pivot X Y``) or what the caller's ``pivot_fit`` returns (the
+stages fit a robust circle to the path). A bob above its pivot in most samples is an error.
+
+Time stamps
+-----------
+Times must be finite and strictly increasing; every such set of times is used
+(:mod:`pendtrack.tables.grid`): times on a uniform grid as they are, jittered or irregular
+ones resampled onto one by cubic splines, with the error bound in :attr:`Record.info`
+(``"resampled"``). Gaps stay gaps (missing rows).
+"""
+
+from pendtrack.tables.checks import theta_warnings, turning_values
+from pendtrack.tables.grid import Grid, time_layout, uniform_grid
+from pendtrack.tables.record import (
+    ARTIFACT_KINDS,
+    PARQUET_SUFFIXES,
+    PivotFit,
+    Record,
+    TableSpec,
+    is_video,
+    read_record,
+    theta_from_xy,
+)
+from pendtrack.tables.units import ColumnName, parse_column_name, parse_columns
+
+__all__ = [
+    "ARTIFACT_KINDS", "PARQUET_SUFFIXES", "ColumnName", "Grid", "PivotFit", "Record", "TableSpec", "is_video",
+    "parse_column_name", "parse_columns", "read_record", "theta_from_xy", "theta_warnings", "time_layout",
+    "turning_values", "uniform_grid",
+]

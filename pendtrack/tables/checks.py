@@ -1,0 +1,129 @@
+"""Is a column in the unit it is read in? Turning points, and the unit checks of undeclared columns.
+
+A pendulum constrains what its record can look like, and that tells a wrong unit:
+
+* **theta not in radians**: a pendulum that turns back cannot sweep more than a full turn
+  between two turning points, so a larger swing is degrees (``Angle`` of an encoder log, a
+  Tracker ``θ``); so is a record that never turns back yet reaches beyond
+  :data:`FAR_TURNS` full turns (a rotating pendulum then needs its unit declared).
+* **time not in seconds**: a pendulum's period is between :data:`PERIOD_RANGE_S` (a
+  period of 100 s is a 2.5 km pendulum); a record whose oscillation is slower in the time
+  column's numbers is in ms or µs, as is one sampled more than :data:`MAX_STEP_S` apart.
+
+Both are errors unless the unit is declared (a header or ``--columns`` unit): an angle read in
+the wrong unit gives a meaningless artifact. A theta oscillating about a centre far from 0 is
+only warned about (a zero offset is possible; a position given as theta is likely).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TURN = 2.0 * math.pi  # no swing between two turning points exceeds a full turn
+FAR_TURNS = 2.0  # a record without two turning points beyond this many turns is not in rad
+CENTRE_WARN_RAD = 0.5  # an oscillation centred further than this from 0 (mod 2 pi) looks like a position
+ZIGZAG_FRACTION = 0.1  # a turning point is confirmed after a retreat of this share of the 1-99 % range
+ZIGZAG_MAX_SAMPLES = 20000  # the turning-point search runs on at most this many samples (decimated)
+PERIOD_RANGE_S = (0.1, 100.0)  # pendulum periods [s]: a 2.5 mm to a 2.5 km pendulum
+MAX_STEP_S = 10.0  # no pendulum record is sampled more than 10 s apart
+TIME_GUESSES = (("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9))
+
+
+def turning_points(values: np.ndarray) -> np.ndarray:
+    """Indices of the turning points of a series, by a zigzag: an extreme counts once the series
+    has retreated from it by :data:`ZIGZAG_FRACTION` of its 1-99 % range (noise does not).
+
+    Non-finite values are skipped; indices refer to ``values``.
+    """
+    x = np.asarray(values, float)
+    where = np.flatnonzero(np.isfinite(x))
+    if where.size < 3:
+        return np.empty(0, np.int64)
+    where = where[:: max(1, where.size // ZIGZAG_MAX_SAMPLES)]
+    v = x[where]
+    lo, hi = np.percentile(v, [1, 99])
+    delta = ZIGZAG_FRACTION * (hi - lo)
+    if delta <= 0:
+        return np.empty(0, np.int64)
+    out: list[int] = []
+    start, ext, k_ext = v[0], v[0], 0
+    direction = 0  # +1 rising, -1 falling, 0 not yet known
+    for k in range(1, v.size):
+        val = v[k]
+        if direction == 0:
+            if abs(val - start) >= delta:
+                direction, ext, k_ext = (1 if val > start else -1), val, k
+        elif direction * (val - ext) > 0:
+            ext, k_ext = val, k
+        elif direction * (ext - val) >= delta:
+            out.append(k_ext)
+            direction, ext, k_ext = -direction, val, k
+    return where[np.asarray(out, np.int64)]
+
+
+def turning_values(theta: np.ndarray) -> np.ndarray:
+    """Values of theta at its turning points (:func:`turning_points`)."""
+    x = np.asarray(theta, float)
+    return x[turning_points(x)]
+
+
+def theta_not_radians(theta: np.ndarray) -> str | None:
+    """Why an angle series read in rad cannot be in rad (a sentence), or None if it can be."""
+    ext = turning_values(theta)
+    if ext.size >= 2:
+        swing = float(np.max(np.abs(np.diff(ext))))
+        if swing > TURN:
+            return (f"theta swings by up to {swing:.4g} between two turning points, more than a full turn "
+                    "(2 pi rad): not radians, it looks like degrees")
+        return None
+    finite = np.asarray(theta, float)[np.isfinite(theta)]
+    if finite.size and float(np.max(np.abs(finite))) > FAR_TURNS * TURN:
+        return (f"theta reaches {float(np.max(np.abs(finite))):.4g} without turning back twice, beyond "
+                f"{FAR_TURNS:g} full turns: not radians, it looks like degrees")
+    return None
+
+
+def time_not_seconds(t: np.ndarray, signal: np.ndarray) -> tuple[str, str] | None:
+    """Why times read in s cannot be in s, and the unit they look like; None if they can be.
+
+    Parameters
+    ----------
+    t : ndarray
+        Strictly increasing times, in the column's own numbers.
+    signal : ndarray
+        What oscillates (theta, or x of positions), for the period.
+    """
+    t = np.asarray(t, float)
+    if t.size < 3:
+        return None
+    step = float(np.median(np.diff(t)))
+    turns = turning_points(signal)
+    lo, hi = PERIOD_RANGE_S
+    if turns.size >= 3:
+        value, what, plausible = 2.0 * float(np.median(np.diff(t[turns]))), "a swing period", (lo, hi)
+        if value <= hi:
+            return None
+    elif step > MAX_STEP_S:
+        value, what, plausible = step, "a sample step", (1e-5, 1.0)
+    else:
+        return None
+    guess = next((u for u, f in TIME_GUESSES if plausible[0] <= value * f <= plausible[1]), "ms")
+    why = f"the time column has {what} of {value:.4g}, too long for seconds"
+    return why, guess
+
+
+def theta_warnings(theta: np.ndarray) -> list[str]:
+    """Warnings on an angle series that looks like a position: it oscillates about a centre more
+    than :data:`CENTRE_WARN_RAD` from 0 (modulo full turns)."""
+    ext = turning_values(theta)
+    if ext.size < 2 or float(np.max(np.abs(np.diff(ext)))) > TURN:
+        return []
+    centre = float(np.median(0.5 * (ext[1:] + ext[:-1])))
+    off = (centre + math.pi) % TURN - math.pi
+    if abs(off) > CENTRE_WARN_RAD:
+        return [f"theta oscillates about {centre:.4g} rad, not about 0 (hanging straight down): it looks like "
+                "a position (x or y, e.g. in metres), not the angle; give positions as columns t, x, y (header or "
+                "--columns), with --pivot X Y or a fitted pivot"]
+    return []

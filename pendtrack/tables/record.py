@@ -1,0 +1,331 @@
+"""The record: read a file (artifact, Parquet, text table, Tracker project), check its units and
+times, compute theta of x, y, and put it on a uniform grid. See :mod:`pendtrack.tables`."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pendtrack.artifacts import Provenance, read_artifact, read_metadata
+from pendtrack.config import VIDEO_SUFFIXES
+from pendtrack.errors import ArtifactError, ConfigError
+from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds
+from pendtrack.tables.grid import resample_irregular, resample_jittered, time_layout
+from pendtrack.tables.text import raw_record, read_text
+from pendtrack.tables.trk import read_trk
+from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
+
+log = logging.getLogger(__name__)
+
+PARQUET_SUFFIXES = frozenset({".parquet", ".pq"})
+TRACKER_SUFFIXES = frozenset({".trk"})
+ARTIFACT_KINDS = ("angle", "kinematics", "truth")  # pendtrack artifacts that hold theta(t)
+CARRIED = ("omega", "alpha")  # float columns of a kinematics artifact resampled with theta
+
+
+@dataclass(frozen=True)
+class TableSpec:
+    """How to read a table: what its columns are, the pivot of x, y columns, a Tracker track.
+
+    Attributes
+    ----------
+    columns : tuple of str, optional
+        One name per column of a text table (``("t", "theta[deg]", "_")``), overriding its header;
+        see :func:`pendtrack.tables.units.parse_columns`.
+    pivot : (float, float), optional
+        Pivot of x, y columns, in their units. None: the caller's ``pivot_fit`` decides.
+    track : str, optional
+        The point-mass track of a Tracker project with several.
+    """
+
+    columns: tuple[str, ...] | None = None
+    pivot: tuple[float, float] | None = None
+    track: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.columns is not None:
+            parse_columns(",".join(self.columns))
+
+    @property
+    def default(self) -> bool:
+        """True when nothing is specified (the file alone decides)."""
+        return self.columns is None and self.pivot is None and self.track is None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"columns": None if self.columns is None else list(self.columns),
+                               "pivot": None if self.pivot is None else list(self.pivot)}
+        if self.track is not None:
+            out["track"] = self.track
+        return out
+
+
+PivotFit = Callable[[np.ndarray, np.ndarray], tuple[tuple[float, float], dict[str, Any]]]
+
+
+@dataclass(frozen=True, eq=False)
+class Record:
+    """theta(t) as read, on a uniform grid (with possible gaps) when its times were not.
+
+    Attributes
+    ----------
+    t : ndarray
+        Times [s], strictly increasing.
+    theta : ndarray
+        Angle [rad] (see the package's conventions).
+    ok : ndarray of bool
+        Usable rows (an artifact's ``ok`` and a finite theta).
+    source : Path
+        The file read.
+    kind : str
+        ``"angle"``, ``"kinematics"``, ``"truth"``, ``"parquet"`` (no pendtrack metadata), ``"table"``
+        or ``"tracker"`` (a ``.trk`` project).
+    columns : dict of str to ndarray
+        Further columns of a kinematics artifact (``omega``, ``alpha``, ``segment``).
+    provenance : Provenance or None
+        The artifact's provenance (pendtrack artifacts only).
+    info : dict
+        How it was read, for the provenance: ``kind``, ``columns`` (as understood),
+        ``pivot`` (x, y tables), ``resampled`` (None, or the grid, method and error bound),
+        ``tracker`` (a .trk project's track, frames and clip), ``warnings``.
+    """
+
+    t: np.ndarray
+    theta: np.ndarray
+    ok: np.ndarray
+    source: Path
+    kind: str
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    provenance: Provenance | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_usable(self) -> int:
+        """Number of usable rows."""
+        return int(np.count_nonzero(self.ok))
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The warnings raised while reading (also logged)."""
+        return tuple(self.info.get("warnings", ()))
+
+
+def is_video(path: str | Path) -> bool:
+    """True if ``path`` looks like a video file (by its suffix)."""
+    return Path(path).suffix.lower() in VIDEO_SUFFIXES
+
+
+def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: PivotFit | None = None,
+                min_samples: int = 0, purpose: str = "this stage") -> Record:
+    """Read theta(t) from an artifact, a Parquet file, a text table or a Tracker project.
+
+    Parameters
+    ----------
+    path : path
+        The file.
+    spec : TableSpec, optional
+        Column names, pivot and track (``--columns``, ``--pivot``, ``--track``).
+    pivot_fit : callable, optional
+        ``pivot_fit(x, y) -> ((px, py), facts)`` for x, y columns without ``spec.pivot``;
+        without it such a table needs the pivot.
+    min_samples : int
+        Fewer usable rows are an error.
+    purpose : str
+        Who needs them, for that error ("discovery").
+
+    Returns
+    -------
+    Record
+
+    Raises
+    ------
+    ArtifactError
+        Missing, unreadable or malformed file, unknown columns, a unit that cannot be right,
+        unusable times; one line naming the file.
+    """
+    path = Path(path)
+    spec = spec or TableSpec()
+    if not path.is_file():
+        raise ArtifactError("file not found", path=path)
+    if is_video(path):
+        raise ArtifactError("is a video: run the video stages first (`pendtrack run` or `pendtrack discover` do)",
+                            path=path)
+    suffix = path.suffix.lower()
+    try:
+        if spec.track is not None and suffix not in TRACKER_SUFFIXES:
+            raise ConfigError("--track applies to Tracker projects (.trk)")
+        if suffix in PARQUET_SUFFIXES:
+            raw = _read_parquet(path, spec)
+        elif suffix in TRACKER_SUFFIXES:
+            if spec.columns is not None:
+                raise ConfigError("--columns applies to tables; a Tracker project's track is read as t, x, y")
+            raw = read_trk(path, spec.track)
+        else:
+            raw = read_text(path, spec.columns)
+    except ConfigError as exc:
+        raise ArtifactError(str(exc), path=path) from None
+    t, ok = raw["t"], raw["ok"]
+    _check_times(t, path)
+    _check_units(raw, path)
+    info: dict[str, Any] = {"kind": raw["kind"], "columns": raw["labels"], "pivot": None, "resampled": None,
+                            "warnings": []}
+    if "tracker" in raw:
+        info["tracker"] = raw["tracker"]
+    theta = _theta_from_xy(raw, ok, spec, pivot_fit, info, path) if raw.get("theta") is None else raw["theta"]
+    ok = ok & np.isfinite(theta)
+    columns: dict[str, np.ndarray] = raw["columns"]
+    layout, grid = time_layout(t)
+    if layout == "jittered":
+        assert grid is not None
+        theta, columns, t, info["resampled"] = resample_jittered(t, theta, ok, columns, grid)
+    elif layout == "irregular":
+        theta, columns, t, info["resampled"] = resample_irregular(t, theta, ok, columns, path=path)
+        ok = np.ones(t.size, dtype=bool)
+    if np.count_nonzero(ok) < min_samples:
+        raise ArtifactError(f"only {np.count_nonzero(ok)} usable samples; {purpose} needs at least {min_samples}",
+                            path=path)
+    for text in theta_warnings(theta[ok]):
+        log.warning("%s: %s", path, text)
+        info["warnings"].append(text)
+    if info["resampled"] is not None:
+        r = info["resampled"]
+        bound = r.get("error_bound_rad")
+        log.info("%s: %s time stamps resampled onto a uniform grid of %.6g s (cubic spline, error %s)", path,
+                 "irregular" if r.get("irregular") else "jittered", r["step_s"],
+                 "not estimated" if bound is None else f"<= {bound:.2g} rad")
+    return Record(t=t, theta=theta, ok=ok, source=path, kind=raw["kind"], columns=columns,
+                  provenance=raw.get("provenance"), info=info)
+
+
+def _check_times(t: np.ndarray, path: Path) -> None:
+    """Finite, strictly increasing times: the only times that are refused are unusable ones."""
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ArtifactError(f"row {bad[0]} has a non-finite time", path=path)
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        what = "a repeated time" if steps[i] == 0 else "time going back"
+        raise ArtifactError(f"time must be strictly increasing (times must increase strictly): {what}, t[{i + 1}] = "
+                            f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s", path=path)
+
+
+def _check_units(raw: dict[str, Any], path: Path) -> None:
+    """An undeclared time or angle column that cannot be in s or rad is an error naming the fix."""
+    cols: list[ColumnName | None] | None = raw.get("cols")
+    found: dict[str, int] | None = raw.get("roles")
+    if cols is None or found is None:
+        return  # a pendtrack artifact: its units are pendtrack's
+    problems: list[str] = []
+    fix: dict[str, str] = {}
+    t_col = cols[found["t"]]
+    if t_col is not None and not t_col.declared:
+        signal = raw["theta"] if raw.get("theta") is not None else raw["x"]
+        wrong = time_not_seconds(raw["t"], signal)
+        if wrong is not None:
+            why, unit = wrong
+            problems.append(f"{why}: it looks like {'µs' if unit == 'us' else unit}")
+            fix["t"] = unit
+    if "theta" in found:
+        th_col = cols[found["theta"]]
+        if th_col is not None and not th_col.declared:
+            why_theta = theta_not_radians(raw["theta"])
+            if why_theta is not None:
+                problems.append(why_theta)
+                fix["theta"] = "deg"
+    if problems:
+        header = ", ".join(f"'{r} [{u}]'" for r, u in fix.items())
+        units = f"unit{'s' if len(fix) > 1 else ''}"
+        how = (f"name the Parquet column{'s' if len(fix) > 1 else ''} {header}" if raw["kind"] == "parquet" else
+               f"declare the {units} with --columns {columns_hint(cols, found, **fix)} (or in the header: {header})")
+        raise ArtifactError(f"{'; '.join(problems)}: {how}", path=path)
+
+
+def _read_parquet(path: Path, spec: TableSpec) -> dict[str, Any]:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    if spec.columns is not None:
+        raise ConfigError("--columns applies to text tables; a Parquet file's columns are named already")
+    meta = read_metadata(path) or {}
+    kind = meta.get("artifact")
+    if kind is not None and kind not in ARTIFACT_KINDS:
+        raise ConfigError(f"is a {kind} artifact, which holds no angle series (expected angle, kinematics, "
+                          "a Parquet file or a text table of t, theta)")
+    if kind is not None:
+        art = read_artifact(path, kind)
+        df = art.data
+        ok = df["ok"].to_numpy(dtype=bool) if "ok" in df.columns else np.ones(len(df), bool)
+        columns = {c: df[c].to_numpy() for c in (*CARRIED, "segment") if c in df.columns}
+        return {"t": df["t"].to_numpy(float), "theta": df["theta"].to_numpy(float), "ok": ok, "kind": kind,
+                "labels": ["t", "theta"], "columns": columns, "provenance": art.provenance}
+    try:
+        df = pq.read_table(path).to_pandas()
+    except (OSError, pa.ArrowException) as exc:
+        raise ConfigError(f"not a readable Parquet file ({exc})") from None
+    cols = [parse_column_name(str(c), aliases=False) for c in df.columns]
+    found = roles(cols, "columns")
+    values: dict[str, Any] = {}
+    for role, i in found.items():
+        series = df[df.columns[i]]
+        if series.dtype.kind not in "fiu":
+            raise ConfigError(f"column {df.columns[i]!r} has dtype {series.dtype}, expected a number")
+        scale = cols[i].scale if role in ("t", "theta") else 1.0  # type: ignore[union-attr]
+        values[role] = series.to_numpy(dtype=float) * scale
+    raw = raw_record(values, found, cols, "parquet")
+    if "ok" in df.columns:
+        if df["ok"].dtype.kind != "b":
+            raise ConfigError(f"column 'ok' has dtype {df['ok'].dtype}, expected bool")
+        raw["ok"] = df["ok"].to_numpy(dtype=bool)
+    return raw
+
+
+# --- x, y -> theta ------------------------------------------------------------------------
+
+def theta_from_xy(x: np.ndarray, y: np.ndarray, *, pivot: tuple[float, float], y_down: bool) -> np.ndarray:
+    """theta [rad] of positions about a pivot (the package's x, y convention), unwrapped.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        Positions, any length unit; y up unless ``y_down``.
+    pivot : (float, float)
+        Pivot in the same units.
+    y_down : bool
+        y points down (image pixels).
+    """
+    dx = np.asarray(x, float) - pivot[0]
+    below = np.asarray(y, float) - pivot[1]
+    if not y_down:
+        below = -below
+    theta = np.arctan2(dx, below)
+    good = np.isfinite(theta)
+    theta[good] = np.unwrap(theta[good])
+    return theta
+
+
+def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_fit: PivotFit | None,
+                   info: dict[str, Any], path: Path) -> np.ndarray:
+    x, y, y_down = raw["x"], raw["y"], raw["y_down"]
+    usable = ok & np.isfinite(x) & np.isfinite(y)
+    facts: dict[str, Any] = {"source": "--pivot"}
+    if spec.pivot is not None:
+        pivot = (float(spec.pivot[0]), float(spec.pivot[1]))
+    elif pivot_fit is not None:
+        pivot, fitted = pivot_fit(x[usable], y[usable])
+        facts = {"source": "circle fit", **fitted}
+    else:
+        raise ArtifactError("x, y columns need the pivot: give --pivot X Y (in the table's units)", path=path)
+    theta = theta_from_xy(x, y, pivot=pivot, y_down=y_down)
+    below = (y[usable] - pivot[1]) * (1.0 if y_down else -1.0)
+    if below.size and np.median(below) < 0:
+        axis, other = ("down", "y") if y_down else ("up", "y_down")
+        raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples with y "
+                            f"{axis}: if the y axis points the other way, name the column {other} (e.g. "
+                            f"--columns t,x,{other})", path=path)
+    info["pivot"] = {"x": pivot[0], "y": pivot[1], "y_axis": "down" if y_down else "up", **facts}
+    return theta

@@ -1,0 +1,211 @@
+"""Delimited text tables: plain logs, Tracker's data export, Vernier Logger Pro / Video Analysis, phyphox.
+
+Layout
+------
+Blank lines and lines starting with ``#`` or ``%`` are skipped. The first line that starts with a
+number starts the data; the lines before it are the preamble. The data's
+separator is a tab, a semicolon, a comma or white space (the one that splits the first data
+line into the most numbers and fewest other cells), with a decimal comma accepted after a tab,
+semicolon or space (phyphox's and European spreadsheets' exports). Empty cells are missing
+values: a row whose used cells are all empty is skipped (a shorter run beside a longer one), a
+missing theta, x or y makes the row not ok, a missing time with values is an error.
+
+Header
+------
+The header is the last preamble line that names a time column and another known one (a
+Tracker export's first line, the track name ``mass A``, is passed over, as are Logger Pro's
+``Vernier Format 2`` lines); a preamble line right after it made of units only (``s  °``:
+Logger Pro's text export) gives the units of the columns that have none. Header fields may be
+quoted (``"Time (s)"``). Names are read by :func:`pendtrack.tables.units.parse_column_name`.
+A Tracker export (subscripted names such as ``v_{x}``, ``θ_{r}``) is read from its ``x``,
+``y``: its ``θ`` columns are angles about Tracker's origin, not the pendulum's.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pendtrack.errors import ConfigError
+from pendtrack.tables.units import ALL_UNITS, ColumnName, parse_column_name, roles
+
+_HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
+_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
+_LAYOUTS = (("\t", False), ("\t", True), (";", False), (";", True), (",", False), (None, False), (None, True))
+
+
+def _cells(line: str, sep: str | None, decimal_comma: bool) -> list[str]:
+    cells = line.split() if sep is None else [c.strip().strip('"').strip() for c in line.split(sep)]
+    if sep is not None and len(cells) > 1 and cells[-1] == "":
+        cells = cells[:-1]  # a trailing separator
+    return [c.replace(",", ".") for c in cells] if decimal_comma else cells
+
+
+def _layout(line: str) -> tuple[str | None, bool] | None:
+    """The separator and decimal comma that split a data line into the most numbers (fewest other
+    cells), its first cell a number; None if ``line`` is no data line."""
+    best, score = None, -1
+    for sep, comma in _LAYOUTS:
+        if (sep is not None and sep not in line) or (comma and "," not in line):
+            continue
+        cells = _cells(line, sep, comma)
+        if not cells or not _NUMBER_RE.match(cells[0]):
+            continue
+        numbers = sum(1 for c in cells if c and _NUMBER_RE.match(c))
+        value = numbers - sum(1 for c in cells if c and not _NUMBER_RE.match(c))
+        if value > score:
+            best, score = (sep, comma), value
+    return best
+
+
+def header_fields(line: str) -> list[str]:
+    """The fields of a header line: split at tabs, semicolons or commas (quotes allowed), else at
+    white space outside brackets (``t (ms)   θ [rad]``)."""
+    for sep in ("\t", ";", ","):
+        if sep in line:
+            return [f.strip() for f in next(csv.reader([line.strip()], delimiter=sep))]
+    return _HEADER_RE.findall(line.strip())
+
+
+def _parse_all(fields: list[str]) -> list[ColumnName | None] | None:
+    try:
+        return [parse_column_name(f) for f in fields]
+    except ConfigError:
+        return None
+
+
+def _names_columns(cols: list[ColumnName | None] | None) -> bool:
+    used = [c for c in (cols or []) if c is not None and c.role != "_"]
+    return len(used) >= 2 and any(c.role == "t" for c in used)
+
+
+def _with_units(fields: list[str], units: list[str]) -> list[str]:
+    """``fields`` with the units of a units line (Logger Pro's text export: ``s  °  rad/s``) added to
+    those that have none; ``fields`` as they are if ``units`` is no units line."""
+    units = [u.strip() for u in units]
+    if len(units) != len(fields) or not any(u.lower() in ALL_UNITS for u in units):
+        return fields
+    if any(" " in u or len(u) > 8 or _names_columns(_parse_all([u, "t"])) for u in units):
+        return fields
+    out = []
+    for f, u in zip(fields, units):
+        col = (_parse_all([f]) or [None])[0]
+        out.append(f"{f} [{u}]" if col is not None and not col.unit and u.lower() in ALL_UNITS else f)
+    return out
+
+
+def _header(preamble: list[tuple[int, str]]) -> list[ColumnName | None] | None:
+    """The columns named by the preamble (see the module docstring); None without a preamble."""
+    if not preamble:
+        return None
+    chosen = None
+    for k in range(len(preamble) - 1, -1, -1):
+        if _names_columns(_parse_all(header_fields(preamble[k][1]))):
+            chosen = k
+            break
+    if chosen is None:  # the last line, for its error
+        return [parse_column_name(f) for f in header_fields(preamble[-1][1])]
+    fields = header_fields(preamble[chosen][1])
+    if chosen + 1 < len(preamble):
+        fields = _with_units(fields, header_fields(preamble[chosen + 1][1]))
+    cols = [parse_column_name(f) for f in fields]
+    if any("_{" in f for f in fields) and {"x", "y"} <= {c.role for c in cols if c is not None}:
+        cols = [None if c is not None and c.role == "theta" else c for c in cols]  # Tracker's θ: about its origin
+    return cols
+
+
+def read_lines(path: Path) -> list[tuple[int, str]]:
+    """Numbered non-blank, non-comment lines (UTF-8, else Windows-1252 as Logger Pro writes)."""
+    data = path.read_bytes()
+    if b"\x00" in data[:4096]:
+        raise ConfigError("not a text table (binary data): expected columns t [s], theta [rad]")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = data.decode("cp1252", errors="replace")
+    lines = [(n, raw.strip()) for n, raw in enumerate(text.splitlines(), start=1)]
+    return [(n, s) for n, s in lines if s and not s.startswith(("#", "%"))]
+
+
+def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
+    """The raw record of a text table (module docstring), in SI units (t [s], theta [rad]).
+
+    Parameters
+    ----------
+    path : Path
+    columns : tuple of str, optional
+        ``--columns`` names, one per column, overriding the header.
+
+    Returns
+    -------
+    dict
+        ``t``, ``theta`` (or None), ``x``, ``y``, ``y_down``, ``ok``, ``cols`` (each column's
+        :class:`ColumnName`), ``roles`` (role -> column index), ``kind`` ("table").
+    """
+    lines = read_lines(path)
+    start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
+    preamble, body = lines[:start], lines[start:]
+    sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
+    width = len(_cells(body[0][1], sep, comma)) if body else 2
+    if columns is not None:
+        if body and len(columns) != width:
+            raise ConfigError(f"--columns names {len(columns)} columns, the table has {width} (first data line "
+                              f"{body[0][0]}): add _ for each column to ignore")
+        cols = [parse_column_name(n) for n in columns]
+        where = "--columns"
+    else:
+        cols_or_none = _header(preamble)
+        where = "header"
+        if cols_or_none is None:
+            if width > 2:
+                hint = "t,theta" + ",_" * (width - 2)
+                raise ConfigError(f"{width} columns and no header: say what they are with --columns; add "
+                                  f"--columns {hint} if they are t [s], theta [rad] and {width - 2} to ignore "
+                                  f"(or --columns t,x,y{',_' * (width - 3)} for positions)")
+            cols_or_none = [ColumnName("t", label="t"), ColumnName("theta", label="theta")]
+        cols = cols_or_none
+    found = roles(cols, where)
+    order = sorted(found.items(), key=lambda kv: kv[1])
+    data = np.full((len(body), len(order)), np.nan)
+    expected = ", ".join(cols[i].describe() for _, i in order)  # type: ignore[union-attr]
+    for row, (lineno, line) in enumerate(body):
+        cells = _cells(line, sep, comma)
+        try:
+            data[row] = [float(cells[i]) if i < len(cells) and cells[i] else np.nan for _, i in order]
+        except ValueError:
+            raise ConfigError(f"line {lineno}: expected numbers {expected}, got {line[:60]!r}") from None
+    present = ~np.all(np.isnan(data), axis=1)
+    k_t = [role for role, _ in order].index("t")
+    no_time = present & np.isnan(data[:, k_t])
+    if np.any(no_time):
+        raise ConfigError(f"line {body[int(np.argmax(no_time))][0]}: values without a time")
+    data = data[present]
+    # t and theta in s and rad; x and y as written (the pivot is in their units)
+    values = {role: data[:, k] * (cols[i].scale if role in ("t", "theta") else 1.0)  # type: ignore[union-attr]
+              for k, (role, i) in enumerate(order)}
+    return raw_record(values, found, cols, "table")
+
+
+def raw_record(values: dict[str, np.ndarray], found: dict[str, int], cols: list[ColumnName | None],
+               kind: str) -> dict[str, Any]:
+    """The raw record of named columns (``values`` per role, already scaled)."""
+    y_down = "y" in found and cols[found["y"]].y_down  # type: ignore[union-attr]
+    if "x" in found and "y" in found:
+        x, y = cols[found["x"]], cols[found["y"]]
+        assert x is not None and y is not None
+        if x.unit and y.unit and x.unit != y.unit:  # two lengths (cm and m; roles() refused px with m): in m
+            values["x"], values["y"] = values["x"] * x.scale, values["y"] * y.scale
+    n = values["t"].size
+    ok = np.ones(n, dtype=bool)
+    for role in ("theta", "x", "y"):
+        if role in values:
+            ok &= np.isfinite(values[role])
+    used = set(found.values())
+    labels = [c.describe() if i in used and c is not None else "_" for i, c in enumerate(cols)]
+    return {"t": values["t"], "theta": values.get("theta"), "x": values.get("x"), "y": values.get("y"),
+            "y_down": bool(y_down), "ok": ok, "kind": kind, "labels": labels, "columns": {}, "cols": cols,
+            "roles": found}

@@ -1,0 +1,255 @@
+"""Column names and their units: what a header field or a ``--columns`` name means.
+
+A name is a role (``t``, ``theta``, ``x``, ``y``), optionally an index (``theta1``, ``x 2``), a unit
+(``theta [deg]``, ``Time (s)``, ``t_ms``, ``Angle (°)``) and a data-set prefix (``Run 1: Time (s)``,
+``VideoAnalysis: X (m)``, Logger Pro's and Vernier Video Analysis' ``<data set>: <column>``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from pendtrack.errors import ConfigError
+
+TIME_NAMES = frozenset({"t", "time", "timestamp", "times"})
+THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ"})
+X_NAMES = frozenset({"x", "pos x", "position x", "x position"})
+Y_NAMES = frozenset({"y", "pos y", "position y", "y position"})
+Y_DOWN_NAMES = frozenset({"y_down", "ydown", "y down"})
+#: Factors to s.
+TIME_UNITS: Mapping[str, float] = {
+    "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "msec": 1e-3,
+    "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "ns": 1e-9, "min": 60.0,
+}
+#: Factors to rad.
+ANGLE_UNITS: Mapping[str, float] = {
+    "rad": 1.0, "rads": 1.0, "radian": 1.0, "radians": 1.0, "mrad": 1e-3,
+    "deg": math.pi / 180, "degree": math.pi / 180, "degrees": math.pi / 180, "°": math.pi / 180,
+}
+#: Factors to m; ``px`` (image pixels) is a unit of its own (None).
+LENGTH_UNITS: Mapping[str, float | None] = {
+    "m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "ft": 0.3048, "px": None, "pixel": None, "pixels": None,
+}
+ALL_UNITS = frozenset({*TIME_UNITS, *ANGLE_UNITS, *LENGTH_UNITS})
+IGNORED = frozenset({"_", "-"})
+_UNIT_RE = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
+_DATASET_RE = re.compile(r"^(?P<set>[^:\[(]+):\s*(?P<name>.+)$")  # Logger Pro's "Run 1: Time (s)"
+_INDEX_RE = re.compile(r"^(?P<name>.*?\D)[\s_]*(?P<index>\d+)$")
+
+
+@dataclass(frozen=True)
+class ColumnName:
+    """One column's meaning, parsed from a header or ``--columns`` name.
+
+    Attributes
+    ----------
+    role : str
+        ``"t"``, ``"theta"``, ``"x"``, ``"y"`` or ``"_"`` (ignored).
+    scale : float
+        Factor to s (t), rad (theta) or m (x, y in a length unit); 1 for px or no unit.
+    unit : str
+        The unit as written, lower case ('' if none): a unit that was declared.
+    y_down : bool
+        A ``y_down`` column (y points down).
+    label : str
+        The name as written.
+    index : int or None
+        An indexed name's number (``theta1``, ``x 2``).
+    dataset : str
+        The data-set prefix (``Run 1`` of ``Run 1: Time (s)``), '' if none.
+    """
+
+    role: str
+    scale: float = 1.0
+    unit: str = ""
+    y_down: bool = False
+    label: str = ""
+    index: int | None = None
+    dataset: str = ""
+
+    @property
+    def declared(self) -> bool:
+        """The unit is given (by the header or ``--columns``)."""
+        return bool(self.unit)
+
+    def describe(self) -> str:
+        """The canonical ``--columns`` spelling of this column (``theta[deg]``, ``y_down[px]``, ``_``)."""
+        if self.role == "_":
+            return "_"
+        name = "y_down" if self.y_down else self.role
+        unit = "deg" if self.unit == "°" else self.unit
+        return f"{name}[{unit}]" if unit else name
+
+
+def _split_unit(text: str) -> tuple[str, str]:
+    """(name, unit) of ``name [unit]``, ``name (unit)``, ``name_unit``, ``name unit`` or ``name°``."""
+    m = _UNIT_RE.match(text)
+    if m:
+        return m.group("name").strip(), m.group("unit").strip()
+    for sep in ("_", " "):
+        head, _, tail = text.rpartition(sep)
+        if head and tail in ALL_UNITS:
+            return head.strip(), tail
+    if text.endswith("°"):
+        return text[:-1].strip(), "°"
+    return text, ""
+
+
+def _role(name: str) -> tuple[str, bool] | None:
+    if name in TIME_NAMES:
+        return "t", False
+    if name in THETA_NAMES:
+        return "theta", False
+    if name in X_NAMES:
+        return "x", False
+    if name in Y_NAMES:
+        return "y", False
+    if name in Y_DOWN_NAMES:
+        return "y", True
+    return None
+
+
+def parse_column_name(label: str, *, aliases: bool = True) -> ColumnName | None:
+    """The meaning of a column name (``theta [deg]``, ``time_ms``, ``θ``, ``y_down``, ``Run 1: Angle (°)``,
+    ``theta1_rad``, ``_``); None if it names nothing this reader uses.
+
+    ``aliases=False`` (Parquet files, whose names a program wrote) knows only the names
+    ``t``, ``theta``, ``x``, ``y``, ``y_down``, units still allowed.
+
+    Raises
+    ------
+    ConfigError
+        A known name with a unit that does not fit it (``theta [m]``).
+    """
+    text = label.strip().strip('"').strip().lower()
+    dataset = ""
+    m = _DATASET_RE.match(text)
+    if m:
+        dataset, text = m.group("set").strip(), m.group("name").strip()
+    if text in IGNORED or not text:
+        return ColumnName("_", label=label)
+    name, unit = _split_unit(text)
+    index = None
+    found = _role(name)
+    if found is None:
+        m = _INDEX_RE.match(name)
+        if m:
+            found, index = _role(m.group("name").strip()), int(m.group("index"))
+    if found is None or (not aliases and (name not in ("t", "theta", "x", "y", "y_down"))):
+        return None
+    role, y_down = found
+    unit = "µs" if unit in ("us", "μs") else unit
+    common = {"unit": unit, "label": label, "index": index, "dataset": dataset, "y_down": y_down}
+    if role == "t":
+        return ColumnName("t", _factor(TIME_UNITS, unit, label, "s, ms, us, min"), **common)
+    if role == "theta":
+        return ColumnName("theta", _factor(ANGLE_UNITS, unit, label, "rad, deg, mrad"), **common)
+    if unit and unit not in LENGTH_UNITS:
+        raise ConfigError(f"column {label!r}: unit {unit!r} is not a length (m, cm, mm, px)")
+    return ColumnName(role, LENGTH_UNITS.get(unit) or 1.0, **common)
+
+
+def _factor(table: Mapping[str, float], unit: str, label: str, expected: str) -> float:
+    if not unit:
+        return 1.0
+    if unit not in table:
+        raise ConfigError(f"column {label!r}: unknown unit {unit!r} (expected {expected})")
+    return table[unit]
+
+
+def parse_columns(text: str) -> tuple[str, ...]:
+    """Split and check a ``--columns`` value (``t,theta,_``, ``t,x,y``, ``t[us],theta[deg]``).
+
+    Raises
+    ------
+    ConfigError
+        An unknown name, or not exactly one ``t`` and one ``theta`` or one ``x`` and one ``y``.
+    """
+    names = tuple(n.strip() for n in text.split(","))
+    parsed = []
+    for n in names:
+        c = parse_column_name(n)
+        if c is None:
+            raise ConfigError(f"--columns: unknown column name {n!r} (t, theta, x, y, y_down, or _ to ignore one; "
+                              "a unit may follow: theta[deg], t[ms], t[us], x[px])")
+        parsed.append(c)
+    roles(parsed, "--columns")
+    return names
+
+
+def columns_hint(cols: Sequence[ColumnName | None], chosen: Mapping[str, int], **units: str) -> str:
+    """A ``--columns`` value naming the ``chosen`` columns (role -> index), with ``units`` (role -> unit)
+    overriding theirs, and ``_`` for every other column."""
+    out = []
+    for i, c in enumerate(cols):
+        role = next((r for r, j in chosen.items() if j == i), None)
+        if role is None or c is None:
+            out.append("_")
+            continue
+        unit = units.get(role, "deg" if c.unit == "°" else c.unit)
+        name = "y_down" if c.y_down else role
+        out.append(f"{name}[{unit}]" if unit else name)
+    return ",".join(out)
+
+
+def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
+    """Index of each used role; raises ConfigError if the names do not make t + theta or t + x + y.
+
+    Several data sets (``Run 1: …``, ``Run 2: …``) or indexed names (``x1``, ``x2``) that each
+    give the roles are ambiguous: the error names the ``--columns`` that picks the first.
+    """
+    found: dict[str, int] = {}
+    dup: tuple[int, int] | None = None
+    for i, c in enumerate(cols):
+        if c is None or c.role == "_":
+            continue
+        if c.role in found:
+            dup = dup or (found[c.role], i)
+            continue
+        found[c.role] = i
+    if dup is not None:
+        a, b = cols[dup[0]], cols[dup[1]]
+        assert a is not None and b is not None
+        text = f"{where}: two columns are {a.role} ({a.label!r} and {b.label!r})"
+        if where != "--columns":
+            first = _first_set(cols, a)
+            hint = f"; pick one with --columns {columns_hint(cols, first)}" if first else "; name them with --columns"
+            text += hint
+        raise ConfigError(text)
+    if "t" not in found or not ("theta" in found or {"x", "y"} <= set(found)):
+        missing = "t" if "t" not in found else "theta"
+        names = ", ".join(repr(c.label) for c in cols if c is not None and c.role != "_") or "none"
+        hint = "" if where == "columns" else "; name them, e.g. --columns t,theta,_ or --columns t,x,y"
+        raise ConfigError(f"{where}: missing column '{missing}' (needs t and theta, or t, x and y; recognised: "
+                          f"{names}){hint}")
+    if "theta" in found:
+        found.pop("x", None)
+        found.pop("y", None)
+    x, y = (cols[found[r]] if r in found else None for r in ("x", "y"))
+    if x is not None and y is not None and x.unit != y.unit and x.unit and y.unit:
+        if LENGTH_UNITS.get(x.unit) is None or LENGTH_UNITS.get(y.unit) is None:
+            raise ConfigError(f"{where}: x is in {x.unit} and y in {y.unit}: give them in one unit")
+    return found
+
+
+def _first_set(cols: Sequence[ColumnName | None], like: ColumnName) -> dict[str, int] | None:
+    """The roles of the first data set (or index) among several, None if it does not give them all."""
+    key = (like.dataset, like.index)
+    group: dict[str, int] = {}
+    for i, c in enumerate(cols):
+        if c is not None and c.role != "_" and (c.dataset, c.index) == key and c.role not in group:
+            group[c.role] = i
+    # a shared time column (Logger Pro's one time with several angles; x1, y1, x2, y2 with one t)
+    if "t" not in group:
+        times = [i for i, c in enumerate(cols) if c is not None and c.role == "t"]
+        if len(times) == 1:
+            group["t"] = times[0]
+    if "t" in group and ("theta" in group or {"x", "y"} <= set(group)):
+        if "theta" in group:
+            group.pop("x", None)
+            group.pop("y", None)
+        return group
+    return None
