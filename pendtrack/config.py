@@ -116,14 +116,13 @@ class FitConfig:
     # each window of the ladder this many times as long as the one before (models without memory: their
     # starts converge on the shorter windows, and many merge there)
     ladder_growth: float = 2.0
-    # the same for the models with memory, whose shorter windows do not pin the memory (no start merges): the
-    # 60-s bench record's fractional fit, 150 starts, took 34 % less CPU with 4 than with 2, same minimum
-    # (Xi^2 within 4e-10 before the refine step), 132 starts accepted instead of 135 (benchmarks/bench_fit_settings.py)
+    # the same for the models with memory, whose shorter windows do not pin the memory (no start merges
+    # there): a 4-fold step still carries Omega0 and the phase, for a third less CPU (docs/decisions.md)
     ladder_growth_memory: float = 4.0
     # a start of a model without memory whose cost on a shorter window of the ladder (at least 1/4 of the
     # record) exceeds this many times the lowest any start up to it reached there stops there; 0 = never.
     # 60-s bench record: the starts that ended accepted were at most 11x (classic) and 7.9x (OPA) the lowest
-    # there; classic's 150 starts then run 1.5x faster, same results (benchmarks/bench_fit_settings.py)
+    # there (docs/decisions.md)
     hopeless_ratio: float = 30.0
     # the same for the models with memory; off: on the 60-s bench record fractional starts 500x the lowest
     # on the 23-s window still ended among the accepted ones (the memory is not pinned by a short window)

@@ -220,7 +220,7 @@ def test_half_resolution_window_is_the_whole_half_feature_cut(colour):
 
 
 def test_a_large_marker_is_matched_at_half_resolution_as_well_as_at_full(monkeypatch):
-    import pendtrack.track.tracker as tracker
+    from pendtrack.track import tracker
 
     frames, truth = swing(40, w=480, h=400, pivot=(240.0, 40.0), arm=280.0, amp=0.6, r=30.0)
     half = track_frames(frames, sampler=raw_sampler(480, 400), params=TrackParams())

@@ -167,9 +167,9 @@ def power_law_curve(classic: Mapping[str, float], omega_max: float, *, n: int = 
 
 def amplitudes(theta: np.ndarray, omega: np.ndarray, omega0: float) -> tuple[np.ndarray, np.ndarray]:
     """A_theta = sin(theta/2), A_omega = omega/(2 Omega0) (eq. amplitudes), by :mod:`pendtrack.kinematics`."""
-    from pendtrack import kinematics
+    from pendtrack.kinematics import amplitudes as core_amplitudes
 
-    a_th, a_om, _ = kinematics.amplitudes(np.asarray(theta, float), np.asarray(omega, float), omega0)
+    a_th, a_om, _ = core_amplitudes(np.asarray(theta, float), np.asarray(omega, float), omega0)
     return a_th, a_om
 
 
@@ -193,7 +193,8 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     kinematics stage does. With the filter's ``window_points`` and step ``h`` (the stage's
     provenance ``extra``) the Savitzky-Golay bias is removed from ``omega0`` as the stage does.
     """
-    from pendtrack import kinematics
+    from pendtrack.kinematics import (KinematicsResult, estimate_omega0, record_turning_points,
+                                      smoothing_moments)
 
     t, th, om, al = (kin[c].to_numpy(float) for c in ("t", "theta", "omega", "alpha"))
     seg = kin["segment"].to_numpy() if "segment" in kin.columns else np.zeros(t.size, dtype=np.int64)
@@ -203,12 +204,12 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     points, h = finite_number(extra.get("window_points")), finite_number(extra.get("h"))
     if points is not None and h is not None:
         info.update(window_points=points, h=h)
-    record = kinematics.KinematicsResult(t=t, theta=th, omega=om, alpha=al, ok=kin["ok"].to_numpy(bool), segment=seg,
+    record = KinematicsResult(t=t, theta=th, omega=om, alpha=al, ok=kin["ok"].to_numpy(bool), segment=seg,
                                          info=info)
-    tp = kinematics.record_turning_points(record)
-    raw = kinematics.estimate_omega0(tp.theta, tp.alpha)
-    moments = kinematics.smoothing_moments(info)
-    est = raw if moments is None else kinematics.estimate_omega0(tp.theta, tp.alpha, sg_moments=moments)
+    tp = record_turning_points(record)
+    raw = estimate_omega0(tp.theta, tp.alpha)
+    moments = smoothing_moments(info)
+    est = raw if moments is None else estimate_omega0(tp.theta, tp.alpha, sg_moments=moments)
     corrected = moments is not None
     return TurningPoints(theta_ext=np.asarray(tp.theta, float), alpha_ext=np.asarray(tp.alpha, float),
                          omega0=float(est.omega0), omega0_stderr=finite_number(est.stderr), omega0_raw=float(raw.omega0),

@@ -1,0 +1,188 @@
+"""Model fits: :func:`fit` (the `fit` stage) and its results, :class:`FitSet` and :class:`ModelFit`."""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from html import escape
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from pendtrack.api.frames import staged, workdir
+from pendtrack.api.options import FIT, configure
+from pendtrack.config import Config
+from pendtrack.errors import FitError
+
+SUMMARY_KEYS = ("converged", "trustworthy", "xi2_min", "rms", "aic", "bic", "n")
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """One model's fit: the content of ``fit_<model>.json`` and its curves from fit.parquet.
+
+    Attributes
+    ----------
+    name : str
+        The model asked for (``fit_<name>.json``); ``record["fitted_model"]`` is the one fitted.
+    record : dict
+        ``fit_<name>.json`` as the CLI writes it (provenance included).
+    curves : DataFrame
+        t, theta, theta_model, omega_model, residual of this model (fit.parquet's rows).
+    """
+
+    name: str
+    record: Mapping[str, Any]
+    curves: pd.DataFrame = field(repr=False)
+
+    @property
+    def params(self) -> pd.DataFrame:
+        """One row per fitted parameter: value, stderr, u_paper (units as the parameter's), flags."""
+        flags = self.record.get("flags") or {}
+        rows = {name: {"value": p.get("value"), "stderr": p.get("stderr"), "u_paper": p.get("u_paper"),
+                       "flags": str(flags.get(name, ""))}
+                for name, p in (self.record.get("params") or {}).items()}
+        df = pd.DataFrame.from_dict(rows, orient="index", columns=["value", "stderr", "u_paper", "flags"])
+        df.index.name = "parameter"
+        return df
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.record.get("converged"))
+
+    @property
+    def trustworthy(self) -> bool:
+        return bool(self.record.get("trustworthy", self.converged))
+
+    def to_dict(self) -> dict[str, Any]:
+        """``fit_<name>.json``'s content (a copy)."""
+        return copy.deepcopy(dict(self.record))
+
+    def _repr_html_(self) -> str:
+        state = "converged" if self.converged else "NOT converged"
+        fitted = self.record.get("fitted_model") or self.name
+        caption = (f"<b>{escape(self.name)}</b> (fitted as {escape(str(fitted))}), {state}; "
+                   f"Xi2_min = {self.record.get('xi2_min'):.6g}, rms = {self.record.get('rms'):.4g} rad")
+        return f"<p>{caption}</p>" + self.params.to_html(float_format=lambda x: f"{x:.6g}")
+
+    def plot(self) -> Any:
+        """The report's figure of this fit: theta(t), data and model, with the residual (a Figure)."""
+        return _theta_figure({self.name: self.curves}, title=self.name)
+
+
+def _theta_figure(curves: Mapping[str, pd.DataFrame], *, title: str) -> Any:
+    from pendtrack.report.figures import theta_fit_figure
+
+    first = next(iter(curves.values()))
+    return theta_fit_figure(first["t"].to_numpy(float), first["theta"].to_numpy(float),
+                            {n: c["theta_model"].to_numpy(float) for n, c in curves.items()},
+                            {n: c["residual"].to_numpy(float) for n, c in curves.items()}, title=title)
+
+
+@dataclass(frozen=True)
+class FitSet:
+    """The fits of one `fit` run: ``fits["fractional"]``, ``fits.selected``, ``fits.to_dict()``.
+
+    Attributes
+    ----------
+    fits : mapping
+        Model name -> :class:`ModelFit`, in the order fitted.
+    combined : dict
+        fit.json as the CLI writes it (one model's record, or the container of several).
+    """
+
+    fits: Mapping[str, ModelFit]
+    combined: Mapping[str, Any]
+
+    def __getitem__(self, name: str) -> ModelFit:
+        try:
+            return self.fits[name]
+        except KeyError:
+            raise KeyError(f"no fit of {name!r}; fitted: {', '.join(self.fits)}") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.fits)
+
+    def __len__(self) -> int:
+        return len(self.fits)
+
+    @property
+    def selected(self) -> str | None:
+        """The fit stage's choice: the trustworthy fit with the lowest BIC, else the converged one; None if none."""
+        if "models" in self.combined:
+            return self.combined.get("selected")
+        return ((self.combined.get("provenance") or {}).get("extra") or {}).get("selected")
+
+    @property
+    def summary(self) -> pd.DataFrame:
+        """One row per model: converged, trustworthy, xi2_min, rms [rad], aic, bic, n."""
+        df = pd.DataFrame.from_dict({n: {k: f.record.get(k) for k in SUMMARY_KEYS} for n, f in self.fits.items()},
+                                    orient="index", columns=list(SUMMARY_KEYS))
+        df.index.name = "model"
+        return df
+
+    def to_dict(self) -> dict[str, Any]:
+        """fit.json's content (a copy)."""
+        return copy.deepcopy(dict(self.combined))
+
+    def _repr_html_(self) -> str:
+        head = f"<p>Selected: <b>{escape(str(self.selected))}</b></p>"
+        return head + self.summary.to_html(float_format=lambda x: f"{x:.6g}") + "".join(
+            f._repr_html_() for f in self.fits.values())
+
+    def plot(self) -> Any:
+        """The report's figure of the fits: theta(t), data and every model, with the residuals (a Figure)."""
+        return _theta_figure({n: f.curves for n, f in self.fits.items()}, title=", ".join(self.fits))
+
+
+def fitset_from_run(run: Any) -> FitSet | None:
+    """The :class:`FitSet` of a run folder read by :func:`pendtrack.report.load.load_run` (None without fits)."""
+    if not run.fits:
+        return None
+    curves = run.get("fit")
+    fits = {}
+    for name, record in run.fits.items():
+        rows = curves[curves["model"] == name] if curves is not None and "model" in curves else curves
+        fits[name] = ModelFit(name, record, pd.DataFrame() if rows is None else rows.reset_index(drop=True))
+    combined = run.combined if run.combined is not None else next(iter(run.fits.values()))
+    return FitSet(fits, combined)
+
+
+def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, config: Config | str | Path | None = None,
+        out: str | Path | None = None, progress: bool = False, **options: Any) -> FitSet:
+    """Fit models to a record: the `fit` stage (``pendtrack fit``), the same fit to the last digit.
+
+    Parameters
+    ----------
+    record : DataFrame
+        From :func:`kinematics`, or any record :func:`read_record` or :func:`angle` gives
+        (differentiated with ``[kinematics]`` first, as the CLI does).
+    models : str or sequence of str, optional
+        As ``--model`` (``"classic"``, ``"standard+memory"``); default ``[fit] models``.
+    config : Config, path or None
+        As ``--config``.
+    out : path, optional
+        Keep fit.json, fit_<model>.json and fit.parquet there (``--out``).
+    progress : bool
+        Progress bars on stderr.
+    **options
+        The flags of ``pendtrack fit``: ``cost``, ``starts``, ``seed``, ``workers`` (and ``offset``).
+
+    Returns
+    -------
+    FitSet
+    """
+    from pendtrack.report.load import load_run
+    from pendtrack.stages.fit import fit_stage
+
+    cfg = configure(config, options, FIT, what="pt.fit")
+    names = (models,) if isinstance(models, str) else (tuple(models) if models else None)
+    with staged(record, what="pt.fit") as src, workdir(out) as folder:
+        fit_stage(src, out_dir=folder, config=cfg, models=names, force=True, progress=progress)
+        result = fitset_from_run(load_run(folder))
+    if result is None:
+        raise FitError("the fit stage wrote no fit")
+    return result
+
