@@ -151,14 +151,13 @@ def bad_inputs(tmp_path_factory, pink_video):
         "missing": (d / "absent.mp4", "file not found"),
         "not a video": (notvideo, "not a readable video"),
         "truncated (moov at end)": (_truncate(video, d / "cut.mp4", 0.5), "not a readable video"),
-        "truncated (moov first)": (_truncate(faststart, d / "cutfs.mp4", 0.6), "truncated"),
         "zero frames": (zero, "no video frames"),
         "no marker": (nomarker, "no pink marker found in the first frame"),
+        "cut (moov first)": _truncate(faststart, d / "cutfs.mp4", 0.6),
     }
 
 
-@pytest.mark.parametrize("case", ["missing", "not a video", "truncated (moov at end)", "truncated (moov first)",
-                                  "zero frames", "no marker"])
+@pytest.mark.parametrize("case", ["missing", "not a video", "truncated (moov at end)", "zero frames", "no marker"])
 def test_bad_video_is_one_line_error_exit_2_nothing_written(tmp_path, bad_inputs, case):
     path, problem = bad_inputs[case]
     out = tmp_path / "out"
@@ -166,6 +165,16 @@ def test_bad_video_is_one_line_error_exit_2_nothing_written(tmp_path, bad_inputs
     one_line_error(res, f"error: {path}: ", problem)
     assert not (out / "track.parquet").exists()
     assert not out.exists() or not any(out.iterdir())  # no temp files either
+
+
+def test_a_cut_file_tracks_the_frames_it_has_with_a_warning(tmp_path, bad_inputs, caplog):
+    # the header declares 40 frames, the data of the later ones is gone: a warning, not a refusal
+    with caplog.at_level("WARNING"):
+        res = invoke("track", bad_inputs["cut (moov first)"], "--out", tmp_path, "-q")
+    assert res.exit_code == 0, res.output
+    assert any("decoding stopped after" in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
+    art = read_artifact(tmp_path / "track.parquet", "track")
+    assert 0 < len(art.data) < 40 and art.provenance.extra["decode"]["shortfall"]
 
 
 def test_marker_that_never_reappears_is_an_error(tmp_path):

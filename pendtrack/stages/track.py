@@ -134,7 +134,8 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     Raises
     ------
     VideoError
-        Missing, unreadable, empty or truncated video.
+        Missing, unreadable or empty video (a shortfall against the container's declared
+        frames or duration is a warning; ``decode`` in the provenance says what decoded).
     TrackingError
         No marker in any frame, or lost in more than half of the frames from its acquisition.
     ConfigError
@@ -173,6 +174,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
                                       on_progress=advance)
             except TrackingError as exc:
                 raise TrackingError(str(exc), path=video) from None
+        decode = dict(reader.decode_report)
     elapsed = time.perf_counter() - t0
     n = int(result.frame.size)
     n_after = result.n_after_acquisition
@@ -189,6 +191,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     df = track_dataframe(result, fisheye, corrected=corrected)
     extra = {
         "video": info.to_dict(),
+        "decode": decode,
         "coordinates": "corrected" if corrected else "raw",
         "sampler": type(sampler).__name__,
         "lens_output_fov_deg": fisheye.output_fov_deg,
