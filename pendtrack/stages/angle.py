@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from pendtrack.artifacts import Provenance, inputs_for, read_artifact, write_artifact
-from pendtrack.config import Config
+from pendtrack.config import Config, LensConfig
 from pendtrack.errors import ConfigError, TrackingError
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.track.angle import theta_from_track
@@ -41,6 +41,15 @@ def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[s
                       projection=projection, fov_deg=fov, fixed_pixels=fixed, ratio=ratio)
 
 
+def lens_was_named(track_config: Mapping[str, Any]) -> bool:
+    """True when the track's ``[lens]`` is not the default one: a flag or a config file named it."""
+    lens = track_config.get("lens")
+    if not isinstance(lens, Mapping):
+        return False
+    default = LensConfig()
+    return any(lens.get(k) != getattr(default, k) for k in ("projection", "fov_deg", "fixed_pixels"))
+
+
 def lens_mismatch_text(check: LensCheck) -> str:
     """One line: the mismatch and the flags that fix it."""
     fix = suggestion_flags(check.suggestion) if check.suggestion else "another --projection/--fov"
@@ -63,7 +72,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         the rest stretch that sets theta's zero, and the lens check: the track's circle
         under the track's lens against no correction, the paper's fisheye and a fitted
         field of view (:mod:`pendtrack.track.lens_check`, recorded as ``lens_check`` in the
-        provenance); a mismatch is an error (``lens_check = "error"``), a warning
+        provenance); a mismatch is an error (``lens_check = "error"``, only when the track
+        used the default lens: a lens the user named is kept with a warning), a warning
         (``"warn"``) or not looked for (``"off"``).
     force, progress : bool
         As every stage (no loop long enough for a progress bar here).
@@ -80,8 +90,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     TrackingError
         Too few ok points, or an arc too short to locate the axle.
     ConfigError
-        Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's lens is clearly
-        not the footage's.
+        Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is
+        clearly not the footage's.
     """
     track = Path(track)
     out = Path(out_dir) / "angle.parquet"
@@ -97,7 +107,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     if ac.lens_check != "off":
         check = lens_check_of_track(df, ok, art.provenance.extra, art.provenance.config, ratio=ac.lens_ratio)
         if check is not None and check.verdict == "mismatch":
-            if ac.lens_check == "error":
+            # a lens the user named is theirs to keep: the check only warns
+            if ac.lens_check == "error" and not lens_was_named(art.provenance.config):
                 raise ConfigError(lens_mismatch_text(check), path=track)
             log.warning("%s: %s", track, lens_mismatch_text(check))
     circle = None
