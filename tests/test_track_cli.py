@@ -197,12 +197,37 @@ def test_bad_flags_are_one_line_errors(tmp_path, pink_video):
     one_line_error(invoke("angle", tmp_path / "none.parquet", "--axle", "1", "--out", tmp_path), "--axle")
 
 
-def test_angle_on_a_too_short_arc_asks_for_the_axle(tmp_path):
+def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outside_the_frame(tmp_path):
+    # +-0.02 rad on a 480 px arm, the axle 400 px above the frame: the arc's sagitta (0.1 px) is below the noise
     video = tmp_path / "short.mp4"
     mtv.write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -400), arm=480,
                           amplitude=0.02, period_s=0.5)
     cfg = Config().replace("lens", projection="none")
     track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
     res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
-    one_line_error(res, "too short to locate the axle", "--axle")
+    one_line_error(res, "bends too little to locate the axle", "film a wider swing")
+    assert "--axle" not in res.output  # the axle is far outside the frame: nobody can type it
     assert not (tmp_path / "angle.parquet").exists()
+
+
+def test_a_short_arc_with_the_axle_out_of_frame_gives_theta_with_its_uncertainty(tmp_path, caplog):
+    # +-10 deg on a 560 px arm, the axle 400 px above a 320x240 frame (issue 27's bauble, smaller): an 18 deg arc
+    video = tmp_path / "bauble.mp4"
+    truth = mtv.write_swing_video(video, width=320, height=240, n_frames=150, radius=9, pivot=(160, -400), arm=560,
+                                  amplitude=np.radians(9.0), period_s=1.0)
+    track_stage(video, out_dir=tmp_path, config=Config().replace("lens", projection="none"), progress=False)
+    with caplog.at_level("WARNING"):
+        res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path, "-q")
+    assert res.exit_code == 0, res.output
+    assert any("theta carries a scale uncertainty" in r.getMessage() for r in caplog.records)
+    angle = read_artifact(tmp_path / "angle.parquet", "angle")
+    unc = angle.provenance.extra["axle_uncertainty"]
+    assert angle.provenance.extra["circle"]["arc_span_deg"] < 20 and unc["theta_scale_rel"] < 0.05
+    theta_true = np.arctan2(truth[:, 1] - 160, truth[:, 2] + 400)
+    th = angle.data.theta.to_numpy()
+    # theta's error: within its stated scale uncertainty (3 sigma) of the swing, plus the zero's share of it
+    # (the axle's x uncertainty over the arm) and the tracking noise (0.1 px / 560 px)
+    err = np.abs(th - theta_true)
+    bound = 3 * (unc["theta_scale_rel"] * np.abs(theta_true) + unc["axle_sigma_px"][0] / 560) + 1e-3
+    assert np.all(err <= bound), (err.max(), bound.min())
+
