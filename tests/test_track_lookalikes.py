@@ -10,11 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from field_videos import field_video
+from test_track_cli import invoke, one_line_error
 
 from pendtrack.artifacts import read_artifact
-from pendtrack.cli import cli
 from pendtrack.track.swing import crossing_times, period_from_crossings, swing_of_track
 
 _spec = importlib.util.spec_from_file_location("make_test_videos", Path(__file__).parent / "data" / "make_test_videos.py")
@@ -24,18 +23,6 @@ _spec.loader.exec_module(mtv)
 # a dark ball on a string, normal lens, the axle above the frame (issue 27's first video, smaller)
 DARK_STRING = dict(rig="string", marker_color="dark", marker_shape="ball", spot_radius_m=0.015, lens_projection="none",
                    lens_fov_deg=70.0, camera_offset_m=(0.0, 0.22), theta0=0.8)
-
-
-def invoke(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args])
-
-
-def one_line_error(res, *fragments):
-    assert res.exit_code == 2, res.output
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
-    for f in fragments:
-        assert f in lines[0], (f, lines[0])
 
 
 # --- the swing check on arrays ----------------------------------------------------------------

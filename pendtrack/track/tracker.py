@@ -61,7 +61,7 @@ MIN_RADIUS_SHARE = 0.75  # acquired only when its radius is >= this share of its
 WARP_TOLERANCE = 1e-2  # re-warp the template when an entry of the lens Jacobian changed by more than this
 TEMPLATE_REACH = 1.3  # template half-side in marker radii (+ 2 px): the marker and a rim of surroundings
 ARC_TOL_PX = 1.0  # position noise of a candidate's detections (and at least 0.1 radius) [px]
-ARC_MAX_RADIUS = 4.0  # a pendulum's arc has a radius below this many frame diagonals (its pivot up to ~3 above the frame: a
+ARC_MAX_RADIUS = 2.5  # a pendulum's arc has a radius below this many frame diagonals (its pivot up to ~1.5 above the frame: a
 # long string filmed close, issue 27's bauble: 2.1 diagonals)
 ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
 ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
