@@ -9,6 +9,13 @@ then post-processed in BGR before it is encoded with :class:`pendtrack.video.wri
 * ``bead``: a small pink bead on the bar, nearer the axle than the spot (it swings too).
 * ``wanderer``: a smaller pink disc wandering across the bottom of the frame on a zigzag
   (something pink carried past), moving all the time, also while the hand hides the spot.
+* ``corner``: a static patch of the marker's colour in the frame's top-left corner, larger
+  than the marker (a dark corner of the room: issue 27's first video);
+* ``twin``: a second pendulum's bob beside the first, as large, swinging at 0.8 times its
+  frequency with a third of its amplitude (two pendulums in view).
+
+``render`` overrides any ``[render]`` key (the marker's colour and shape, the rig, the lens,
+the renderer's own hand): the painted conditions then take the marker's colour.
 
 Deterministic (seeded); 640x360 by default so a few seconds render in about a second.
 """
@@ -28,6 +35,7 @@ from pendtrack.video.writer import VideoWriter
 
 SKIN_BGR = (140.0, 172.0, 224.0)
 BLUE_BGR = (220.0, 60.0, 30.0)
+MARKER_BGR = {"dark": (35.0, 35.0, 40.0), "blue": BLUE_BGR}  # the painted conditions' colour for such markers
 
 
 @dataclass(frozen=True)
@@ -57,10 +65,11 @@ class FieldVideo:
 
 def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, width: int = 640, height: int = 360,
                 theta0: float = 1.2, hand_s: float = 0.0, poster: bool = False, sticker: bool = False,
-                bead: bool = False, wanderer: bool = False, seed: int = 0) -> FieldVideo:
+                bead: bool = False, wanderer: bool = False, corner: bool = False, twin: bool = False, seed: int = 0,
+                **render: object) -> FieldVideo:
     """Render, post-process and encode; see the module docstring for the conditions."""
     cfg = Config().replace("render", width=width, height=height, fps=fps, seconds=seconds, theta0=theta0,
-                           seed=seed).render
+                           seed=seed, **render).render
     plan = plan_render(cfg)
     renderer = make_renderer(plan)
     scene = plan.scene
@@ -69,12 +78,25 @@ def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, wi
     ex, ey = scene.project(*scene.to_world(scene.spot_distance_m + scene.spot_radius_m, 0.0, 0.0))
     cx0, cy0 = scene.spot_centre_px(0.0)
     radius = float(np.hypot(ex - cx0, ey - cy0))
-    visible = motion.t >= hand_s
+    visible = (motion.t >= hand_s) & (motion.t >= cfg.hand_release_s)
+    twin_period = 2 * np.pi / float(plan.params.get("Omega0", 2 * np.pi)) if twin else 1.0
     light = np.array(SPOT_BGR) * 255.0 * 0.8
+    if cfg.marker_color != "pink":
+        light = np.array(MARKER_BGR[cfg.marker_color], float)
+    ax, ay = scene.spot_centre_px(0.0)
     with VideoWriter(path, width=width, height=height, fps=fps, crf=20) as writer:
         for k in range(motion.n_frames):
             img = renderer.render(motion.frame_thetas(k))
             th = float(motion.theta[k])
+            if corner:
+                cv2.ellipse(img, (int(0.07 * width), int(0.05 * height)), (int(3 * radius), int(2 * radius)), 0, 0,
+                            360, tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA)
+            if twin:
+                th2 = float(motion.theta[0]) / 3 * np.cos(0.8 * 2 * np.pi * float(motion.t[k]) / twin_period)
+                qx, qy = scene.spot_centre_px(th2)
+                qx += 0.3 * width * (1 if ax < width / 2 else -1)
+                cv2.circle(img, (int(round(4 * qx)), int(round(4 * qy))), int(round(4 * radius)),
+                           tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA, shift=2)
             if poster:
                 cv2.circle(img, (int(0.8 * width), int(0.2 * height)), int(round(1.4 * radius)),
                            tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA)

@@ -75,6 +75,27 @@ def test_undecided_when_the_geometry_cannot_tell(case):
     assert {"on_axis": "geometry", "short_arc": "arc spans", "few_points": "ok points"}[case] in c.reason
 
 
+def test_no_judgement_on_a_track_that_is_no_clean_arc():
+    # a point that hardly moves (a static look-alike's jitter) and a track that jumps between objects:
+    # no lens makes either a circle, and none is proposed (issue #27: "equisolid 210 deg, 1e9x better")
+    rng = np.random.default_rng(3)
+    still = _check(45 + rng.normal(0, 0.3, 400), 25 + rng.normal(0, 0.3, 400), projection="none")
+    assert still.verdict == "undecided" and still.suggestion is None and "span" in still.reason
+    u, v = _points("rectilinear", 95.0)
+    jumps = rng.random(u.size) < 0.3  # a third of the frames on another object somewhere in the frame
+    u, v = u.copy(), v.copy()
+    u[jumps], v[jumps] = rng.uniform(0, W, jumps.sum()), rng.uniform(0, H, jumps.sum())
+    c = _check(u, v, projection="none")
+    assert c.verdict == "undecided" and c.suggestion is None and "not a clean arc" in c.reason
+
+
+def test_never_proposes_a_lens_wider_than_a_frame_filling_one():
+    for projection, fov in (("rectilinear", 95.0), ("equisolid", 120.0), ("equisolid", 170.0)):
+        c = _check(*_points(projection, fov), projection="none")
+        assert all(h.fov_deg <= 180 for h in c.hypotheses if h.name == "fitted_fov")
+        assert c.suggestion is None or c.suggestion["projection"] == "none" or c.suggestion["fov_deg"] <= 180
+
+
 # --- the angle stage on rendered videos -------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -125,6 +146,18 @@ def test_run_stops_on_the_mismatch_and_works_with_the_flag_it_names(tracked, tmp
     assert "Traceback" not in res.output and "lens mismatch" not in res.output
     check = read_artifact(tmp_path / "angle.parquet", "angle").provenance.extra["lens_check"]
     assert check["verdict"] == "consistent" and check["best"] == "configured"
+
+
+def test_a_lens_the_user_named_is_kept_with_a_warning(tracked, tmp_path, caplog):
+    # the fisheye footage tracked as the user said, with a normal lens: the check warns, the run goes on
+    d = tracked["fisheye"]
+    cfg = Config().replace("lens", projection="none")
+    track_stage(d / "video.mp4", out_dir=tmp_path, config=cfg, progress=False)
+    with caplog.at_level("WARNING"):
+        angle_stage(tmp_path / "track.parquet", out_dir=tmp_path, config=Config(), progress=False)
+    check = read_artifact(tmp_path / "angle.parquet", "angle").provenance.extra["lens_check"]
+    assert check["verdict"] == "mismatch"
+    assert any("lens mismatch" in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
 
 
 def test_paper_fisheye_render_raises_no_alarm(tracked):

@@ -142,6 +142,9 @@ def bad_inputs(tmp_path_factory, pink_video):
     faststart = d / "fs.mp4"
     mtv.write_swing_video(faststart, width=160, height=120, n_frames=40, radius=6, pivot=(80, 20), arm=60,
                           faststart=True)
+    swinging = d / "fs_long.mp4"  # long enough that what is left of it still swings
+    mtv.write_swing_video(swinging, width=160, height=120, n_frames=90, radius=6, pivot=(80, 20), arm=60,
+                          period_s=0.5, faststart=True)
     data = faststart.read_bytes()
     zero = d / "zero.mp4"
     zero.write_bytes(data[: data.find(b"mdat") + 4])
@@ -151,14 +154,13 @@ def bad_inputs(tmp_path_factory, pink_video):
         "missing": (d / "absent.mp4", "file not found"),
         "not a video": (notvideo, "not a readable video"),
         "truncated (moov at end)": (_truncate(video, d / "cut.mp4", 0.5), "not a readable video"),
-        "truncated (moov first)": (_truncate(faststart, d / "cutfs.mp4", 0.6), "truncated"),
         "zero frames": (zero, "no video frames"),
         "no marker": (nomarker, "no pink marker found in the first frame"),
+        "cut (moov first)": _truncate(swinging, d / "cutfs.mp4", 0.6),
     }
 
 
-@pytest.mark.parametrize("case", ["missing", "not a video", "truncated (moov at end)", "truncated (moov first)",
-                                  "zero frames", "no marker"])
+@pytest.mark.parametrize("case", ["missing", "not a video", "truncated (moov at end)", "zero frames", "no marker"])
 def test_bad_video_is_one_line_error_exit_2_nothing_written(tmp_path, bad_inputs, case):
     path, problem = bad_inputs[case]
     out = tmp_path / "out"
@@ -166,6 +168,16 @@ def test_bad_video_is_one_line_error_exit_2_nothing_written(tmp_path, bad_inputs
     one_line_error(res, f"error: {path}: ", problem)
     assert not (out / "track.parquet").exists()
     assert not out.exists() or not any(out.iterdir())  # no temp files either
+
+
+def test_a_cut_file_tracks_the_frames_it_has_with_a_warning(tmp_path, bad_inputs, caplog):
+    # the header declares 40 frames, the data of the later ones is gone: a warning, not a refusal
+    with caplog.at_level("WARNING"):
+        res = invoke("track", bad_inputs["cut (moov first)"], "--out", tmp_path, "-q")
+    assert res.exit_code == 0, res.output
+    assert any("decoding stopped after" in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
+    art = read_artifact(tmp_path / "track.parquet", "track")
+    assert 0 < len(art.data) < 90 and art.provenance.extra["decode"]["shortfall"]
 
 
 def test_marker_that_never_reappears_is_an_error(tmp_path):
@@ -185,12 +197,37 @@ def test_bad_flags_are_one_line_errors(tmp_path, pink_video):
     one_line_error(invoke("angle", tmp_path / "none.parquet", "--axle", "1", "--out", tmp_path), "--axle")
 
 
-def test_angle_on_a_too_short_arc_asks_for_the_axle(tmp_path):
+def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outside_the_frame(tmp_path):
+    # +-0.02 rad on a 480 px arm, the axle 400 px above the frame: the arc's sagitta (0.1 px) is below the noise
     video = tmp_path / "short.mp4"
-    mtv.write_swing_video(video, width=160, height=120, n_frames=20, radius=6, pivot=(80, -400), arm=480,
-                          amplitude=0.02)
+    mtv.write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -400), arm=480,
+                          amplitude=0.02, period_s=0.5)
     cfg = Config().replace("lens", projection="none")
     track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
     res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
-    one_line_error(res, "too short to locate the axle", "--axle")
+    one_line_error(res, "bends too little to locate the axle", "film a wider swing")
+    assert "--axle" not in res.output  # the axle is far outside the frame: nobody can type it
     assert not (tmp_path / "angle.parquet").exists()
+
+
+def test_a_short_arc_with_the_axle_out_of_frame_gives_theta_with_its_uncertainty(tmp_path, caplog):
+    # +-10 deg on a 560 px arm, the axle 400 px above a 320x240 frame (issue 27's bauble, smaller): an 18 deg arc
+    video = tmp_path / "bauble.mp4"
+    truth = mtv.write_swing_video(video, width=320, height=240, n_frames=150, radius=9, pivot=(160, -400), arm=560,
+                                  amplitude=np.radians(9.0), period_s=1.0)
+    track_stage(video, out_dir=tmp_path, config=Config().replace("lens", projection="none"), progress=False)
+    with caplog.at_level("WARNING"):
+        res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path, "-q")
+    assert res.exit_code == 0, res.output
+    assert any("theta carries a scale uncertainty" in r.getMessage() for r in caplog.records)
+    angle = read_artifact(tmp_path / "angle.parquet", "angle")
+    unc = angle.provenance.extra["axle_uncertainty"]
+    assert angle.provenance.extra["circle"]["arc_span_deg"] < 20 and unc["theta_scale_rel"] < 0.05
+    theta_true = np.arctan2(truth[:, 1] - 160, truth[:, 2] + 400)
+    th = angle.data.theta.to_numpy()
+    # theta's error: within its stated scale uncertainty (3 sigma) of the swing, plus the zero's share of it
+    # (the axle's x uncertainty over the arm) and the tracking noise (0.1 px / 560 px)
+    err = np.abs(th - theta_true)
+    bound = 3 * (unc["theta_scale_rel"] * np.abs(theta_true) + unc["axle_sigma_px"][0] / 560) + 1e-3
+    assert np.all(err <= bound), (err.max(), bound.min())
+

@@ -96,7 +96,8 @@ def test_the_larger_of_two_swinging_blobs_is_the_marker(tmp_path):
 @pytest.fixture(scope="module")
 def swing_60(tmp_path_factory):
     path = tmp_path_factory.mktemp("se") / "swing.mp4"
-    truth = mtv.write_swing_video(path, n_frames=90, fps=60.0, radius=8.0)
+    # a period of 0.45 s: the 0.5 s of a --start/--end range see it swing (across and back)
+    truth = mtv.write_swing_video(path, n_frames=90, fps=60.0, radius=8.0, period_s=0.45)
     return path, truth
 
 

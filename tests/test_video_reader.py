@@ -1,5 +1,6 @@
 """Video reader: planes, presentation timestamps (VFR), fps override and bad files."""
 
+import fractions
 import importlib.util
 from pathlib import Path
 
@@ -107,16 +108,61 @@ def test_truncated_video_moov_at_end(tmp_path):
         VideoReader(bad)
 
 
-def test_truncated_video_moov_at_start(tmp_path):
-    # faststart: the header declares 40 frames, the data of the later ones is missing
-    frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(40)]
+def _cut_faststart(tmp_path, n=40, keep=0.6):
+    """A faststart mp4 of ``n`` noise frames cut to ``keep`` of its bytes: the header declares all of them."""
+    frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(n)]
     good = _encode(tmp_path / "v.mp4", frames, faststart=True)
     bad = tmp_path / "cut.mp4"
-    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.6)])
-    with pytest.raises(VideoError, match=r"cut\.mp4: truncated"):
-        with VideoReader(bad) as reader:
-            for _ in reader:
-                pass
+    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * keep)])
+    return bad
+
+
+def test_a_cut_file_is_a_warning_and_its_frames_are_used(tmp_path, caplog):
+    # faststart: the header declares 40 frames, the data of the later ones is missing (decoding fails part-way)
+    bad = _cut_faststart(tmp_path)
+    with caplog.at_level("WARNING"), VideoReader(bad) as reader:
+        frames = [f.index for f in reader]
+        report = reader.decode_report
+    assert 0 < len(frames) < 40 and frames == list(range(len(frames)))
+    assert report["shortfall"] and report["declared_frames"] == 40 and report["decoded_frames"] == len(frames)
+    assert any("cut.mp4" in r.getMessage() and "decoding stopped" in r.getMessage() for r in caplog.records)
+
+
+def _with_filler_samples(path, n=30, fps=30):
+    """An mp4 whose track holds a filler sample (an H.264 access-unit delimiter, no picture) after every
+    other frame: the container declares ~1.5 n frames over the n frames' duration, as re-encoded clips do."""
+    tb = fractions.Fraction(1, 2 * fps)
+    c = av.open(str(path), "w", format="mp4")
+    s = c.add_stream("libx264", rate=fps)
+    s.height, s.width = 48, 64
+    s.pix_fmt = "yuv420p"
+    s.options = {"bframes": "0"}
+    s.codec_context.time_base = tb
+    packets = []
+    for i in range(n):
+        f = av.VideoFrame.from_ndarray(np.full((48, 64, 3), 7 * i % 250, np.uint8), format="bgr24")
+        f.pts, f.time_base = 2 * i, tb
+        packets += list(s.encode(f))
+    packets += list(s.encode())
+    for k, p in enumerate(packets):
+        c.mux(p)
+        if k % 2 == 0:
+            q = av.Packet(b"\x00\x00\x00\x02\x09\xf0")  # one length-prefixed AUD NAL unit
+            q.stream, q.pts, q.dts, q.time_base = s, p.pts + 1, p.dts + 1, p.time_base
+            c.mux(q)
+    c.close()
+    return path
+
+
+def test_a_wrong_declared_frame_count_is_a_hint(tmp_path, caplog):
+    video = _with_filler_samples(tmp_path / "filler.mp4")
+    assert probe_video(video).n_frames > 40  # the container's count is wrong ...
+    with caplog.at_level("WARNING"), VideoReader(video) as reader:
+        t = np.array([f.t for f in reader])
+        report = reader.decode_report
+    assert t.size == 30 and np.allclose(np.diff(t), 1 / 30)  # ... every frame decodes at its own time
+    assert not report["shortfall"] and "count is wrong" in report["note"]
+    assert not [r for r in caplog.records if r.levelname == "WARNING"]
 
 
 def test_zero_frame_video(tmp_path):
@@ -150,15 +196,11 @@ def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
     for other in (fb, fc):
         assert [(i, t) for i, t, _ in fa] == [(i, t) for i, t, _ in other]
         assert all(np.array_equal(x, y) for (_, _, x), (_, _, y) in zip(fa, other))
-    # an error in the decoding thread reaches the consumer
-    frames = [np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8) for i in range(40)]
-    good = _encode(tmp_path / "fs.mp4", frames, faststart=True)
-    bad = tmp_path / "cut.mp4"
-    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.6)])
-    with pytest.raises(VideoError, match="truncated"):
-        with VideoReader(bad, prefetch=4) as reader:
-            for _ in reader:
-                pass
+    # an error in the decoding thread reaches the consumer: the same frames, the same shortfall
+    bad = _cut_faststart(tmp_path)
+    with VideoReader(bad) as a, VideoReader(bad, prefetch=4) as b:
+        assert [f.index for f in a] == [f.index for f in b]
+        assert a.decode_report == b.decode_report and b.decode_report["shortfall"]
     # leaving early (consumer error) stops the thread before the container closes
     with pytest.raises(RuntimeError):
         with VideoReader(video, prefetch=2) as reader:

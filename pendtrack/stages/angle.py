@@ -11,16 +11,21 @@ import numpy as np
 import pandas as pd
 
 from pendtrack.artifacts import Provenance, inputs_for, read_artifact, write_artifact
-from pendtrack.config import Config
+from pendtrack.config import Config, LensConfig
 from pendtrack.errors import ConfigError, TrackingError
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.track.angle import theta_from_track
-from pendtrack.track.circle import fit_circle
+from pendtrack.track.circle import circle_uncertainty, fit_circle
 from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
 
 log = logging.getLogger(__name__)
 
-MIN_ARC_SPAN_DEG = 20.0  # a shorter arc cannot locate the axle: pass --axle
+MIN_ARC_SPAN_DEG = 20.0  # a shorter arc locates the axle poorly: theta with a warning stating its uncertainty
+# theta is given only while the axle's uncertainty scales it by at most this share (a 5 % scale error on theta
+# is a 5 % error on the nonlinear terms' amplitudes; Omega0 rests on the period, which no scale changes). Beyond
+# it the track is no arc about one axle: a short arc that bends within the noise, a point that is not the bob,
+# a bob swinging out of the image plane (a conical swing seen from the side: radius uncertain by 37-74 %)
+MAX_SCALE_REL = 0.05
 
 
 def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[str, Any],
@@ -39,6 +44,24 @@ def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[s
         return None
     return check_lens(df["x_px"].to_numpy(float)[ok], df["y_px"].to_numpy(float)[ok], width=width, height=height,
                       projection=projection, fov_deg=fov, fixed_pixels=fixed, ratio=ratio)
+
+
+def _in_frame(x: float, y: float, track_extra: Mapping[str, Any]) -> bool:
+    """Is ``(x, y)`` [px] inside the track's video frame (False when the track does not record its size)?"""
+    video = track_extra.get("video") or {}
+    try:
+        return 0 <= x < float(video["width"]) and 0 <= y < float(video["height"])
+    except (KeyError, TypeError, ValueError):
+        return False
+
+
+def lens_was_named(track_config: Mapping[str, Any]) -> bool:
+    """True when the track's ``[lens]`` is not the default one: a flag or a config file named it."""
+    lens = track_config.get("lens")
+    if not isinstance(lens, Mapping):
+        return False
+    default = LensConfig()
+    return any(lens.get(k) != getattr(default, k) for k in ("projection", "fov_deg", "fixed_pixels"))
 
 
 def lens_mismatch_text(check: LensCheck) -> str:
@@ -63,7 +86,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         the rest stretch that sets theta's zero, and the lens check: the track's circle
         under the track's lens against no correction, the paper's fisheye and a fitted
         field of view (:mod:`pendtrack.track.lens_check`, recorded as ``lens_check`` in the
-        provenance); a mismatch is an error (``lens_check = "error"``), a warning
+        provenance); a mismatch is an error (``lens_check = "error"``, only when the track
+        used the default lens: a lens the user named is kept with a warning), a warning
         (``"warn"``) or not looked for (``"off"``).
     force, progress : bool
         As every stage (no loop long enough for a progress bar here).
@@ -78,10 +102,14 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     ArtifactError
         Missing or malformed track.
     TrackingError
-        Too few ok points, or an arc too short to locate the axle.
+        Too few ok points, or a track whose circle locates the axle so poorly that theta's
+        scale is uncertain by more than ``MAX_SCALE_REL`` (an arc bending within the noise,
+        or no arc about one axle). An arc shorter than ``MIN_ARC_SPAN_DEG`` within it gives
+        theta with a warning; ``axle_uncertainty`` in the provenance: the axle's and the
+        radius' standard uncertainties [px] and theta's relative scale uncertainty.
     ConfigError
-        Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's lens is clearly
-        not the footage's.
+        Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is
+        clearly not the footage's.
     """
     track = Path(track)
     out = Path(out_dir) / "angle.parquet"
@@ -97,10 +125,12 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     if ac.lens_check != "off":
         check = lens_check_of_track(df, ok, art.provenance.extra, art.provenance.config, ratio=ac.lens_ratio)
         if check is not None and check.verdict == "mismatch":
-            if ac.lens_check == "error":
+            # a lens the user named is theirs to keep: the check only warns
+            if ac.lens_check == "error" and not lens_was_named(art.provenance.config):
                 raise ConfigError(lens_mismatch_text(check), path=track)
             log.warning("%s: %s", track, lens_mismatch_text(check))
     circle = None
+    uncertainty: dict[str, object] = {}
     if ac.axle:
         if len(ac.axle) != 2:
             raise ConfigError(f"[angle] axle must be x, y, got {list(ac.axle)}")
@@ -108,10 +138,28 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     else:
         if ok.sum() < 10:
             raise TrackingError(f"only {int(ok.sum())} ok points: too few to fit the axle", path=track)
-        circle = fit_circle(df["x"].to_numpy()[ok], df["y"].to_numpy()[ok])
-        if np.degrees(circle.arc_span) < MIN_ARC_SPAN_DEG:
-            raise TrackingError(f"the marker's arc spans {np.degrees(circle.arc_span):.1f} deg, too short to "
-                                f"locate the axle; pass --axle X,Y", path=track)
+        xs, ys = df["x"].to_numpy()[ok], df["y"].to_numpy()[ok]
+        circle = fit_circle(xs, ys)
+        span = float(np.degrees(circle.arc_span))
+        sx, sy, sr = circle_uncertainty(xs, ys, circle)
+        scale_rel = sr / circle.radius if circle.radius > 0 else np.inf
+        uncertainty = {"axle_sigma_px": [sx, sy], "radius_sigma_px": sr, "theta_scale_rel": scale_rel}
+        if not scale_rel <= MAX_SCALE_REL:
+            if span < MIN_ARC_SPAN_DEG:
+                in_frame = _in_frame(circle.xc, circle.yc, art.provenance.extra)
+                raise TrackingError(
+                    f"the marker's arc spans {span:.1f} deg and bends too little to locate the axle (radius "
+                    f"{circle.radius:.0f} +- {sr:.0f} px): film a wider swing or more swings"
+                    + (", or pass --axle X,Y" if in_frame else ""), path=track)
+            raise TrackingError(
+                f"the track is no arc about one axle (circle residual {circle.rms:.1f} px rms, radius "
+                f"{circle.radius:.0f} +- {sr:.0f} px): the tracked point is not the bob, or the bob swings out "
+                f"of the image plane; track again with --roi X,Y,W,H around the bob, filmed square to its swing",
+                path=track)
+        if span < MIN_ARC_SPAN_DEG:
+            log.warning("%s: the marker's arc spans %.1f deg: the axle is located to +-%.1f px (radius %.0f +- %.1f "
+                        "px), so theta carries a scale uncertainty of %.1f %%", track, span, max(sx, sy),
+                        circle.radius, sr, 100 * scale_rel)
         axle = (circle.xc, circle.yc)
     res = theta_from_track(df["t"].to_numpy(float), df["x"].to_numpy(float), df["y"].to_numpy(float), ok,
                            axle=axle, rest_seconds=ac.rest_seconds, rest_omega_max=ac.rest_omega_max,
@@ -124,6 +172,7 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
                  "lens_check = off" if ac.lens_check == "off" else "the track records no lens or frame size")}}
     if circle is not None:
         extra["circle_rms_px"] = circle.rms
+        extra["axle_uncertainty"] = uncertainty
     write_artifact(out_df, out, "angle", provenance=Provenance(stage="angle", config=sections, inputs=inputs,
                                                                extra=extra))
     facts = {"axle": axle, "zero_reference": res.zero_reference,

@@ -18,6 +18,7 @@ from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.track.colour import MarkerColour, parse_marker_colour
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
+from pendtrack.track.swing import swing_of_track
 from pendtrack.track.tracker import TrackParams, TrackResult, track_frames
 from pendtrack.video.reader import VideoReader, check_time_range
 
@@ -134,9 +135,11 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     Raises
     ------
     VideoError
-        Missing, unreadable, empty or truncated video.
+        Missing, unreadable or empty video (a shortfall against the container's declared
+        frames or duration is a warning; ``decode`` in the provenance says what decoded).
     TrackingError
-        No marker in any frame, or lost in more than half of the frames from its acquisition.
+        No marker in any frame, lost in more than half of the frames from its acquisition,
+        or a tracked point that does not swing (:func:`pendtrack.track.swing.swing_of_track`).
     ConfigError
         Invalid ``[lens]``/``[track]`` values.
     """
@@ -173,6 +176,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
                                       on_progress=advance)
             except TrackingError as exc:
                 raise TrackingError(str(exc), path=video) from None
+        decode = dict(reader.decode_report)
     elapsed = time.perf_counter() - t0
     n = int(result.frame.size)
     n_after = result.n_after_acquisition
@@ -182,6 +186,11 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         raise TrackingError(f"marker lost in {n_after - int(result.ok.sum())} of {n_after} frames{found} "
                             f"(best scores below min_score {params.min_score}); try --roi or --min-score",
                             path=video)
+    swing = swing_of_track(result.t, result.x, result.y, result.ok)
+    if not swing.swings:
+        # a static look-alike (a dark corner, a shadow, a poster) tracked "ok" in every frame is no result
+        raise TrackingError(f"{swing.reason}, so it is no pendulum's marker; pass --roi X,Y,W,H around the bob in "
+                            f"a frame where it swings (or --marker-color, --start)", path=video)
     if result.drift["alarm"]:
         log.warning("%s: the evolving template drifted up to %.1f px from the first one (limit %.1f px, "
                     "re-anchored %d times)", video, result.drift["max_px"], params.max_drift_px,
@@ -189,6 +198,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     df = track_dataframe(result, fisheye, corrected=corrected)
     extra = {
         "video": info.to_dict(),
+        "decode": decode,
         "coordinates": "corrected" if corrected else "raw",
         "sampler": type(sampler).__name__,
         "lens_output_fov_deg": fisheye.output_fov_deg,
@@ -197,6 +207,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         "tracking_fps": n / elapsed if elapsed > 0 else None,
         "time_range_s": {"start": vc.start, "end": vc.end if vc.end > 0 else None},
         **result.to_dict(),
+        "swing": swing.to_dict(),
     }
     write_artifact(df, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
                                                              extra=extra))

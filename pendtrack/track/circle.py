@@ -143,3 +143,43 @@ def fit_circle(x: np.ndarray, y: np.ndarray, *, loss: str = "soft_l1", f_scale: 
     res = np.hypot(x - xc, y - yc) - r
     return CircleFit(xc=xc, yc=yc, radius=r, rms=float(np.sqrt(np.mean(res * res))),
                      mad=float(np.median(np.abs(res))), n=int(x.size), arc_span=arc_span(x, y, xc, yc))
+
+
+def circle_uncertainty(x: np.ndarray, y: np.ndarray, fit: CircleFit) -> tuple[float, float, float]:
+    """Standard uncertainties of a circle fit's centre and radius [px]: (sigma_xc, sigma_yc, sigma_r).
+
+    The larger of two estimates per parameter: the formal one (Gauss-Newton covariance at
+    the fit, residual scale from the median absolute residual) and half the difference of
+    fits to the first and second halves of the points (in their order: for a track, the
+    earlier and the later swings), which sees what the formal one cannot -- correlated
+    tracking errors, a wobbling bob, a residual lens distortion.
+
+    Parameters
+    ----------
+    x, y : array_like
+        The points the circle was fitted to [px], in time order.
+    fit : CircleFit
+
+    Returns
+    -------
+    (float, float, float)
+        [px]; inf when the points cannot pin the circle down (a straight arc).
+    """
+    x, y = _check(x, y)
+    d = np.hypot(x - fit.xc, y - fit.yc)
+    d = np.where(d > 0, d, 1.0)
+    j = np.column_stack([-(x - fit.xc) / d, -(y - fit.yc) / d, -np.ones_like(d)])
+    sigma = 1.4826 * fit.mad
+    try:
+        formal = np.sqrt(np.clip(np.diag(np.linalg.inv(j.T @ j)), 0, None)) * sigma
+    except np.linalg.LinAlgError:
+        return float("inf"), float("inf"), float("inf")
+    half = x.size // 2
+    if half >= 10:
+        a = fit_circle(x[:half], y[:half])
+        b = fit_circle(x[half:], y[half:])
+        split = 0.5 * np.abs(np.array([a.xc - b.xc, a.yc - b.yc, a.radius - b.radius]))
+    else:
+        split = np.zeros(3)
+    out = np.maximum(formal, split)
+    return float(out[0]), float(out[1]), float(out[2])

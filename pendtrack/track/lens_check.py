@@ -13,7 +13,8 @@ Hypotheses
   when the configured lens differs from it;
 * a fitted field of view: the configured projection (equisolid when the configured one is
   ``none``) with the diagonal field of view that fits the circle best, searched over
-  ``[FOV_MIN_DEG, FOV_MAX_DEG]`` (a field of view towards 0 tends to ``none``).
+  ``[FOV_MIN_DEG, FOV_MAX_DEG]`` (a field of view towards 0 tends to ``none``; beyond 180 deg
+  diagonal a lens no longer fills the frame, so no such lens is proposed).
 
 The fixed-pixel fraction only scales the corrected image about its centre, which keeps
 circles circles: it cannot be checked and is not varied.
@@ -24,8 +25,9 @@ Each hypothesis' residual is the trimmed RMS radial residual (points within 5 ro
 standard deviations) divided by its circle's radius, so that corrections of different
 scale compare. Then:
 
-1. **undecided** when fewer than ``MIN_POINTS`` ok points or the arc spans less than
-   ``MIN_ARC_DEG`` degrees;
+1. **undecided** when fewer than ``MIN_POINTS`` ok points, the points span less than
+   ``MIN_EXTENT_PX`` (a point that hardly moves: no circle to judge) or the arc spans less
+   than ``MIN_ARC_DEG`` degrees;
 2. **undecided** when the geometry cannot tell a normal lens from the fisheye: the arc
    fitted under the fisheye (the configured one, or the paper's) is mapped to raw pixels
    and corrected as a normal lens, and the reverse; if the systematic residual this adds
@@ -33,11 +35,15 @@ scale compare. Then:
    ``ratio``, no lens can be told from another here. This is the README's known limit: a
    circle centred on the optical axis stays a circle under any radial correction; a short
    arc is bent into a circle of another radius;
-3. the **best** hypothesis is the one with the smallest residual; those within
+3. **undecided** when no hypothesis leaves the track a circle to tracking precision (the
+   best residual is above ``MAX_BEST_RMS_PX``, or more than ``MAX_OUTLIER_SHARE`` of the
+   points are off its circle): a track that jumps or wobbles is no circle
+   under any lens, and whichever lens happens to fit its noise best is no evidence;
+4. the **best** hypothesis is the one with the smallest residual; those within
    ``BEST_TOLERANCE`` of it count as equally good, and the first of configured, ``none``,
    paper's fisheye, fitted field of view is taken (no fitted value is preferred to a
    simpler one that fits as well);
-4. **mismatch** when the configured lens' residual is at least ``ratio`` (2 by default)
+5. **mismatch** when the configured lens' residual is at least ``ratio`` (2 by default)
    times the best one's; otherwise **consistent**.
 
 Each hypothesis also records how far theta under it departs from theta under the configured
@@ -58,7 +64,13 @@ MIN_POINTS = 30  # fewer ok points: undecided
 MIN_ARC_DEG = 60.0  # a shorter arc: undecided (a circle of another radius absorbs the distortion)
 MAX_POINTS = 1500  # the check thins longer tracks evenly (its cost, not its outcome)
 BEST_TOLERANCE = 1.1  # residuals within this factor of the smallest count as equally good
-FOV_MIN_DEG, FOV_MAX_DEG = 10.0, 220.0  # fitted field of view search range [deg] (orthographic: <= 180)
+FOV_MIN_DEG, FOV_MAX_DEG = 10.0, 180.0  # fitted field of view search range [deg]: plausible full-frame lenses
+MIN_EXTENT_PX = 20.0  # points spanning less (bounding-box diagonal) [px]: undecided, no circle to judge
+# The best lens must leave the track a circle to this trimmed RMS [px]: subpixel tracking plus motion blur and a
+# wobbling bob stay well below it (rendered tracks: 0.05-0.5 px), a lens off by tens of degrees or a track
+# that jumps between objects is far above it.
+MAX_BEST_RMS_PX = 2.0
+MAX_OUTLIER_SHARE = 0.1  # ... with at most this share of the points off it (frames on another object)
 PAPER_PROJECTION, PAPER_FOV_DEG = "equisolid", 120.0  # the paper's lens (LensConfig defaults)
 TRIM_SIGMAS = 5.0  # residuals beyond this many robust standard deviations are outliers (lost frames)
 
@@ -165,11 +177,16 @@ def suggestion_flags(suggestion: dict[str, object]) -> str:
     return f"--projection {suggestion['projection']} --fov {float(suggestion['fov_deg']):.0f}"  # type: ignore[arg-type]
 
 
-def _trimmed_rms(x: np.ndarray, y: np.ndarray, c: CircleFit) -> float:
+def _inliers(x: np.ndarray, y: np.ndarray, c: CircleFit) -> tuple[np.ndarray, np.ndarray]:
+    """Radial residuals [px] and the mask of those within ``TRIM_SIGMAS`` robust standard deviations."""
     r = np.hypot(x - c.xc, y - c.yc) - c.radius
     med = float(np.median(r))
     s = 1.4826 * float(np.median(np.abs(r - med)))
-    keep = np.abs(r - med) <= TRIM_SIGMAS * s if s > 0 else np.ones(r.size, bool)
+    return r, (np.abs(r - med) <= TRIM_SIGMAS * s if s > 0 else np.ones(r.size, bool))
+
+
+def _trimmed_rms(x: np.ndarray, y: np.ndarray, c: CircleFit) -> float:
+    r, keep = _inliers(x, y, c)
     return float(np.sqrt(np.mean(r[keep] ** 2)))
 
 
@@ -245,6 +262,10 @@ def check_lens(u: np.ndarray, v: np.ndarray, *, width: int, height: int, project
 
     if u.size < MIN_POINTS:
         return undecided(f"only {u.size} ok points: at least {MIN_POINTS} are needed to compare lenses")
+    extent = float(np.hypot(np.ptp(u), np.ptp(v)))
+    if extent < MIN_EXTENT_PX:
+        return undecided(f"the points span {extent:.1f} px: at least {MIN_EXTENT_PX:g} px of swing are needed to "
+                         f"compare lenses")
     fes: dict[str, Fisheye] = {"configured": _fisheye(width, height, projection, fov_deg, fixed_pixels)}
     if projection != "none":
         fes["none"] = _fisheye(width, height, "none", fov_deg, fixed_pixels)
@@ -283,6 +304,12 @@ def check_lens(u: np.ndarray, v: np.ndarray, *, width: int, height: int, project
                          f"fisheye would raise the circle residual only {separation:.2f}x (a mismatch needs "
                          f"{ratio:g}x; the axle is near the optical axis, or the arc is short)", hyps_t, separation)
     best = next(h for h in hyps_t if h.rms_rel <= BEST_TOLERANCE * noise)
+    outliers = 1.0 - float(np.mean(_inliers(*fits[best.name][:3])[1]))
+    if best.rms_px > MAX_BEST_RMS_PX or outliers > MAX_OUTLIER_SHARE:
+        return undecided(f"no lens makes the track a circle (the best, {best.label}, leaves {best.rms_px:.1f} px "
+                         f"rms and {100 * outliers:.0f} % of the points off it; a lens can be judged below "
+                         f"{MAX_BEST_RMS_PX:g} px and {100 * MAX_OUTLIER_SHARE:.0f} %): the track is not a clean arc",
+                         hyps_t, separation)
     conf = hyps_t[0]
     r = conf.rms_rel / best.rms_rel if best.rms_rel > 0 else 1.0
     if best.name == "configured" or r < ratio:

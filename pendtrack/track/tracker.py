@@ -61,14 +61,23 @@ MIN_RADIUS_SHARE = 0.75  # acquired only when its radius is >= this share of its
 WARP_TOLERANCE = 1e-2  # re-warp the template when an entry of the lens Jacobian changed by more than this
 TEMPLATE_REACH = 1.3  # template half-side in marker radii (+ 2 px): the marker and a rim of surroundings
 ARC_TOL_PX = 1.0  # position noise of a candidate's detections (and at least 0.1 radius) [px]
-ARC_MAX_RADIUS = 1.5  # a pendulum's arc has a radius below this many frame diagonals (its pivot is near the frame)
+ARC_MAX_RADIUS = 2.5  # a pendulum's arc has a radius below this many frame diagonals (its pivot up to ~1.5 above the frame: a
+# long string filmed close, issue 27's bauble: 2.1 diagonals)
 ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
 ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
+# Two movers on arcs, within this radius ratio of each other and further apart than this many radii, are two
+# pendulums (a bead or a sticker riding on one bob is smaller, or on it): which one is the user's to say.
+TWIN_RADIUS_RATIO = 1.5
+TWIN_SEPARATION = 4.0
+# A whole-frame search takes, among the half-resolution peaks scoring within this of the best, the one nearest
+# the last ok position: a second pendulum of the same look is not swapped in when the marker is lost a moment.
+WHOLE_FRAME_SCORE_BAND = 0.1
 # A marker of at least this radius [px] is matched on the half-resolution (chroma) grid of a raw frame (see
 # MarkerTracker): still >= 12 samples of radius there, more than the 960x540 sticker case (21 px radius at full
 # resolution, its chroma on a grid of half that) whose theta meets the target, and the filling and matching cost
 # a quarter to a sixth (measured on the 1080p blue ball, 43 px: 0.61 -> 0.14 ms filling, 0.32 -> 0.07 ms matching).
 HALF_RES_RADIUS_PX = 24.0
+_BOX3_PEAK = np.ones((3, 3), np.uint8)  # local maxima of the whole-frame scores (read-only)
 MAX_WARPS = 4096  # lens-warped templates kept at most (one per lens Jacobian met; ~8 kB each for the paper's spot)
 
 
@@ -516,8 +525,16 @@ class MarkerTracker:
         if f.shape[0] < small.shape[0] or f.shape[1] < small.shape[1]:
             return None
         scores = cv2.matchTemplate(f, small, cv2.TM_CCOEFF_NORMED)
-        _, _, _, (ix, iy) = cv2.minMaxLoc(scores)
+        _, best, _, (ix, iy) = cv2.minMaxLoc(scores)
         c = (small.shape[0] - 1) / 2.0
+        if self._hist:
+            # the peaks near the best: the one nearest where the marker was last seen
+            peaks = (scores >= best - WHOLE_FRAME_SCORE_BAND) & (scores >= cv2.dilate(scores, _BOX3_PEAK))
+            py, px = np.nonzero(peaks)
+            if px.size > 1:
+                _, lx, ly = self._hist[-1]
+                k = int(np.argmin((2.0 * (px + c) + 0.5 - lx) ** 2 + (2.0 * (py + c) + 0.5 - ly) ** 2))
+                ix, iy = int(px[k]), int(py[k])
         return 2.0 * (ix + c) + 0.5, 2.0 * (iy + c) + 0.5
 
     def step(self, index: int, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[float, float, float, bool]:
@@ -669,7 +686,11 @@ class _Acquirer:
         if key not in self._cache:
             self.n_searched += 1
             if self.roi:
-                det = marker_in_roi(fr.y, fr.u, fr.v, self.roi)  # type: ignore[attr-defined, arg-type]
+                # a blob of the marker's colour inside the ROI, else whatever stands out in it (its colour learned)
+                x0, y0, w, h = self.roi
+                inside = [c for c in marker_candidates(fr.y, fr.u, fr.v, self.colour)  # type: ignore[attr-defined]
+                          if x0 <= c.x < x0 + w and y0 <= c.y < y0 + h]
+                det = inside[0] if inside else marker_in_roi(fr.y, fr.u, fr.v, self.roi)  # type: ignore[attr-defined]
                 self._cache[key] = [] if det is None else [det]
             else:
                 self._cache[key] = marker_candidates(fr.y, fr.u, fr.v, self.colour)  # type: ignore[attr-defined]
@@ -788,6 +809,7 @@ class _Acquirer:
             else:
                 still.append(cand)
         self.rejected_paths += len(moving["not_arc"])
+        _refuse_two_pendulums([c[0] for c in moving["arc"]])
         for shape in ("arc", "unclear"):
             if moving[shape]:
                 self.path_shape = shape
@@ -805,6 +827,17 @@ class _Acquirer:
                                 f"(try another --roi or --start)")
         raise TrackingError(f"no {self.colour.name} marker found in the first frame{later} "
                             f"(try --marker-color, --roi or --start)")
+
+
+def _refuse_two_pendulums(arcs: list[Detection]) -> None:
+    """Raise when two of the movers on pendulum arcs are alike in size and apart: two pendulums in view."""
+    for i, a in enumerate(arcs):
+        for b in arcs[i + 1:]:
+            r = max(a.radius, b.radius)
+            if (max(a.radius, b.radius) <= TWIN_RADIUS_RATIO * min(a.radius, b.radius)
+                    and np.hypot(a.x - b.x, a.y - b.y) > TWIN_SEPARATION * r):
+                raise TrackingError(f"two pendulums in view (markers swinging at ({a.x:.0f}, {a.y:.0f}) px and "
+                                    f"({b.x:.0f}, {b.y:.0f}) px); pass --roi X,Y,W,H around the one to track")
 
 
 def path_shape(path: np.ndarray, *, marker_radius: float, diagonal: float) -> str:

@@ -13,8 +13,13 @@ Frames without a timestamp fall back to the container's average rate. ``t`` and 
 stay those of the whole video when only a part of it is read (``start``, ``end``): the
 times a user reads in a player are the times of the artifacts.
 
-Every problem a user can cause (missing file, not a video, no frames, truncated file, a
-decoding error) raises :class:`pendtrack.errors.VideoError` naming the file.
+What the container declares (frame count, duration, average rate) is a hint: the frames are
+what decodes, each at its own timestamp. A file whose decoded frames cover the declared duration
+but not the declared count (re-encoded clips, variable rates, filler samples) is read as it is; a
+real shortfall (the decoded frames end before the declared duration, or decoding fails part-way:
+a cut download) is a warning, and the frames before it are used. Only a file of which nothing can
+be decoded (missing file, not a video, no frames) raises :class:`pendtrack.errors.VideoError`
+naming the file. :attr:`VideoReader.decode_report` says what was found.
 """
 
 from __future__ import annotations
@@ -56,9 +61,11 @@ class VideoInfo:
     width, height : int
         Frame size [px].
     n_frames : int
-        Frames declared by the container (0 when it does not say).
+        Frames declared by the container (0 when it does not say): a hint, often wrong.
     fps : float
-        Average frame rate [1/s] (0 when unknown).
+        Average frame rate [1/s] (0 when unknown): a hint.
+    duration_s : float
+        Stream (else container) duration declared [s] (0 when unknown): a hint.
     codec : str
     pix_fmt : str
         Decoded pixel format (frames in other formats are converted to yuv420p).
@@ -71,10 +78,11 @@ class VideoInfo:
     fps: float
     codec: str
     pix_fmt: str
+    duration_s: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
         return {"path": str(self.path), "width": self.width, "height": self.height, "n_frames": self.n_frames,
-                "fps": self.fps, "codec": self.codec, "pix_fmt": self.pix_fmt}
+                "fps": self.fps, "codec": self.codec, "pix_fmt": self.pix_fmt, "duration_s": self.duration_s}
 
 
 class YuvFrame:
@@ -147,13 +155,25 @@ def _reason(exc: BaseException) -> str:
     return getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
 
 
+def _declared_duration(stream: av.video.stream.VideoStream) -> float:
+    if stream.duration and stream.time_base:
+        return float(stream.duration * stream.time_base)
+    container_us = stream.container.duration
+    return float(container_us) / av.time_base if container_us else 0.0
+
+
 def _info(path: Path, stream: av.video.stream.VideoStream) -> VideoInfo:
     cc = stream.codec_context
     rate = stream.average_rate or stream.base_rate or stream.guessed_rate
     fmt = cc.format.name if cc.format is not None else ""
     return VideoInfo(path=path, width=int(cc.width), height=int(cc.height), n_frames=int(stream.frames or 0),
-                     fps=float(rate) if rate else 0.0, codec=cc.name, pix_fmt=fmt)
+                     fps=float(rate) if rate else 0.0, codec=cc.name, pix_fmt=fmt,
+                     duration_s=max(0.0, _declared_duration(stream)))
 
+
+# The decoded frames "cover" the declared duration when they reach it within this many frame
+# intervals (containers round durations and count the last frame's display time or not).
+COVER_FRAMES = 2.0
 
 def probe_video(path: str | Path) -> VideoInfo:
     """Open a video, read its header and close it; raises :class:`VideoError` if unreadable."""
@@ -218,12 +238,19 @@ class VideoReader:
         decoded (their timestamps and indices count) but not handed over; decoding stops
         after ``end``.
 
+    Attributes
+    ----------
+    decode_report : dict
+        After a whole iteration: ``declared_frames``, ``decoded_frames``, ``declared_s``,
+        ``decoded_s`` (first to last frame plus one median interval) [s], ``shortfall``
+        (True when the frames end before the declared duration or decoding failed part-way)
+        and ``note`` (a sentence, or "").
+
     Raises
     ------
     VideoError
-        On open (missing, not a video, no video stream), during iteration (decoding error),
-        and at the end of the iteration (no frames; fewer frames than the container
-        declares, i.e. a truncated file).
+        On open (missing, not a video, no video stream) and at the end of the iteration when
+        no frame decoded. A shortfall against the container's declarations is a warning.
     """
 
     def __init__(self, path: str | Path, *, fps: float = 0.0, threads: bool = False, prefetch: int = 0,
@@ -246,6 +273,7 @@ class VideoReader:
         self.info = _info(self.path, self._stream)
         self.prefetch = prefetch_depth(int(prefetch), prefetch_mb, self.info.width, self.info.height)
         self.n_decoded = 0
+        self.decode_report: dict[str, object] = {}
         self._prefetcher: _Prefetcher | None = None
 
     def __enter__(self) -> "VideoReader":
@@ -283,14 +311,18 @@ class VideoReader:
         index = 0
         n_yielded = 0
         start, end = self._start - TIME_TOLERANCE_S, self._end + TIME_TOLERANCE_S
+        times: list[float] = []
+        failure = ""
         while True:
             try:
                 frame = next(decoder)
             except StopIteration:
                 break
             except av.error.FFmpegError as exc:
-                raise VideoError(f"truncated or corrupt: decoding failed after {index} frames ({_reason(exc)})",
-                                 path=self.path) from None
+                if index == 0:
+                    raise VideoError(f"not decodable ({_reason(exc)})", path=self.path) from None
+                failure = _reason(exc)
+                break
             if fps_override > 0:
                 t = index / fps_override
             else:
@@ -303,6 +335,7 @@ class VideoReader:
                 if t_first is None:
                     t_first = pts_time
                 t = pts_time - t_first
+            times.append(t)
             if self._end > 0 and t > end and n_yielded:
                 self._stop_prefetch()
                 return  # past ``end``: the rest of the file is not read
@@ -313,22 +346,40 @@ class VideoReader:
             y, u, v, frame = frame_planes(frame)
             n_yielded += 1
             yield YuvFrame(index - 1, t, y, u, v, frame)
-        self._check_complete(index)
+        if index == 0:
+            raise VideoError("no video frames", path=self.path)
+        self.decode_report = self._report(np.asarray(times), failure)
+        if self.decode_report["shortfall"]:
+            log.warning("%s: %s", self.path, self.decode_report["note"])
+        elif self.decode_report["note"]:
+            log.info("%s: %s", self.path, self.decode_report["note"])
         if n_yielded == 0:
             until = f"end {self._end:g} s" if self._end > 0 else "the end"
             raise VideoError(f"no frames from start {self._start:g} s to {until}: the last frame is at {t:g} s "
                              f"(--start and --end are times from the first frame [s])", path=self.path)
 
-    def _check_complete(self, n: int) -> None:
-        if n == 0:
-            raise VideoError("no video frames", path=self.path)
-        declared = self.info.n_frames
-        if declared and n < declared:
-            missing = declared - n
-            if missing > max(2, declared // 100):
-                raise VideoError(f"truncated: decoded {n} of the {declared} frames the container declares",
-                                 path=self.path)
-            log.warning("%s: decoded %d of %d declared frames", self.path, n, declared)
+    def _report(self, times: np.ndarray, failure: str) -> dict[str, object]:
+        """What decoded against what the container declares (the whole file was read)."""
+        n = int(times.size)
+        step = float(np.median(np.diff(times))) if n > 1 else (1.0 / self.info.fps if self.info.fps > 0 else 0.0)
+        decoded_s = float(times[-1] - times[0]) + step
+        declared_n, declared_s = self.info.n_frames, self.info.duration_s
+        report: dict[str, object] = {"declared_frames": declared_n, "decoded_frames": n, "declared_s": declared_s,
+                                     "decoded_s": decoded_s, "shortfall": False, "note": ""}
+        if failure:
+            report["shortfall"] = True
+            report["note"] = (f"decoding stopped after {n} frames ({decoded_s:.3f} s) with '{failure}': the rest of "
+                              f"the file is damaged or missing; using the frames before it")
+        elif self._fps > 0 or (self._end > 0 and times[-1] >= self._end):
+            pass  # an fps override makes the declared duration incomparable; a range stops before the end
+        elif declared_s > 0 and decoded_s < declared_s - COVER_FRAMES * max(step, 1e-3):
+            report["shortfall"] = True
+            report["note"] = (f"decoded {n} frames covering {decoded_s:.3f} s of the {declared_s:.3f} s the "
+                              f"container declares: the file may be cut short; using the frames there are")
+        elif declared_n and declared_n != n:
+            report["note"] = (f"decoded {n} frames where the container declares {declared_n}; they cover its "
+                              f"{declared_s:.3f} s, so the count is wrong, not the file")
+        return report
 
 
 _END = object()
