@@ -140,7 +140,7 @@ def test_the_walker_sees_function_level_and_relative_imports(tmp_path: Path) -> 
     """The reader itself: a lazy import inside a function and a relative import both count."""
     src = tmp_path / "pendtrack" / "models" / "x.py"
     src.parent.mkdir(parents=True)
-    src.write_text("def f():\n    from pendtrack.fitting import lm\n\nfrom . import y\n", encoding="utf-8")
-    known = {"pendtrack.fitting", "pendtrack.fitting.lm", "pendtrack.models.y"}
-    assert _imports("pendtrack.models.x", src, known) == {"pendtrack.fitting.lm", "pendtrack.models.y"}
-    assert _layer("pendtrack.fitting.lm") > _layer("pendtrack.models.x")
+    src.write_text("def f():\n    from pendtrack.fitting.leastsq import lm\n\nfrom . import y\n", encoding="utf-8")
+    known = {"pendtrack.fitting.leastsq", "pendtrack.fitting.leastsq.lm", "pendtrack.models.y"}
+    assert _imports("pendtrack.models.x", src, known) == {"pendtrack.fitting.leastsq.lm", "pendtrack.models.y"}
+    assert _layer("pendtrack.fitting.leastsq.lm") > _layer("pendtrack.models.x")

@@ -15,11 +15,11 @@ The steps of :func:`fit_model`, each a module: :mod:`~pendtrack.fitting.estimate
 :mod:`~pendtrack.fitting.search` -> :mod:`~pendtrack.fitting.refine` ->
 :mod:`~pendtrack.fitting.uncertainty` (:func:`~pendtrack.fitting.uncertainty.assess`) ->
 :mod:`~pendtrack.fitting.result` (:func:`~pendtrack.fitting.result.build_result`).
-Building blocks: :mod:`~pendtrack.fitting.record` (usable samples, grid, :func:`build_problem`),
-:mod:`~pendtrack.fitting.cost` (Xi^2, observation), :mod:`~pendtrack.fitting.problem` (residuals
-on a window), :mod:`~pendtrack.fitting.estimates` (equation-error estimates),
-:mod:`~pendtrack.fitting.multistart` (local fits over growing windows, parallel),
-:mod:`~pendtrack.fitting.polish` (profile polish and profile sigmas), :mod:`~pendtrack.fitting.lm`,
+Building blocks: :mod:`~pendtrack.fitting.leastsq.samples` (usable samples, grid, :func:`build_problem`),
+:mod:`~pendtrack.fitting.leastsq.cost` (Xi^2, observation), :mod:`~pendtrack.fitting.leastsq.problem` (residuals
+on a window), :mod:`~pendtrack.fitting.leastsq.equation_error` (equation-error estimates),
+:mod:`~pendtrack.fitting.leastsq.local_fits` (local fits over growing windows, parallel),
+:mod:`~pendtrack.fitting.leastsq.profile` (profile polish and profile sigmas), :mod:`~pendtrack.fitting.leastsq.lm`,
 :mod:`~pendtrack.fitting.cross_model`, :mod:`~pendtrack.fitting.two_cuboid`.
 
 Importing this package is cheap: numba and the solvers are loaded on first use.
@@ -27,11 +27,11 @@ Importing this package is cheap: numba and the solvers are loaded on first use.
 
 from __future__ import annotations
 
-from pendtrack.fitting.cost import COSTS, Observation
+from pendtrack.fitting.leastsq.cost import COSTS, Observation
 from pendtrack.fitting.cross_model import CrossModel, Relation, cross_model_relations
 from pendtrack.fitting.fitter import check_options, fit_model
 from pendtrack.fitting.predict import WindowScore, predict, score
-from pendtrack.fitting.record import Record, build_problem, check_record
+from pendtrack.fitting.leastsq.samples import Record, build_problem, check_record
 from pendtrack.fitting.result import FitResult, ParamEstimate
 from pendtrack.fitting.two_cuboid import TwoCuboidFit, fit_two_cuboid
 

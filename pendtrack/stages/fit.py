@@ -178,7 +178,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         Too few samples, none usable, no oscillation.
     """
     from pendtrack.fitting import check_record, cross_model_relations, fit_model, predict
-    from pendtrack.fitting.ladder import search_pool
+    from pendtrack.fitting.leastsq.ladder import search_pool
     from pendtrack.fitting.result import _num
     from pendtrack.models import compose, get_model
 
