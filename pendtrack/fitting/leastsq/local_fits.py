@@ -24,7 +24,6 @@ warm the simulator once (numba kernels load from their ``cache=True`` cache or c
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from dataclasses import dataclass
