@@ -88,6 +88,21 @@ def locate_stop(theta, st, ct, omega, t, remaining, s, k, forcing, t_start, h, t
     return tc, thc
 
 
+def sample_alpha(theta, st, omega, t, s, k, forcing, t_start, h):  # noqa: ANN001, ANN201
+    """alpha [rad/s^2] at an output sample: 0 while stuck (``s == 0``), else the acceleration plus the forcing."""
+    if s == 0.0:
+        return 0.0
+    return accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
+
+
+def restart_at_stop(theta, t, tc, remaining, c, forcing, t_start, h):  # noqa: ANN001, ANN201
+    """After an event at ``t + tc`` (omega = 0 there): ``(theta, sin theta, cos theta, t, remaining, s)``,
+    sin and cos from libm, ``s`` the new direction of motion (0: stuck)."""
+    t = t + tc
+    s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
+    return theta, math.sin(theta), math.cos(theta), t, remaining - tc, s
+
+
 def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
                  out_theta, out_omega, out_alpha):  # noqa: ANN001, ANN201
     """RK4 with sgn-crossing events; fills ``out_*[0 .. n_steps]`` at t_start + i h.
@@ -117,8 +132,7 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
     out_omega[0] = omega
     want_alpha = out_alpha.shape[0] > 0
     if want_alpha:
-        out_alpha[0] = 0.0 if s == 0.0 else (
-            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+        out_alpha[0] = sample_alpha(theta, st, omega, t_start, s, kc, forcing, t_start, h)
     for i in range(n_steps):
         for j in range(substeps):
             t = t_start + i * h + j * hs
@@ -137,13 +151,8 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
                     break
                 # omega changes sign inside: stop where it is 0
                 tc, thc = locate_stop(theta, st, ct, omega, t, remaining, s, kc, forcing, t_start, h, th1, w1, hs)
-                theta = thc
-                st = math.sin(theta)
-                ct = math.cos(theta)
                 omega = 0.0
-                t = t + tc
-                remaining = remaining - tc
-                s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
+                theta, st, ct, t, remaining, s = restart_at_stop(thc, t, tc, remaining, c, forcing, t_start, h)
                 if remaining <= 0.0:
                     break
         ti = t_start + (i + 1) * h
@@ -151,9 +160,5 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
         out_omega[i + 1] = omega
         st = math.sin(theta)  # the rotations' rounding does not accumulate past a sample
         ct = math.cos(theta)
-        if not want_alpha:
-            continue
-        if s == 0.0:
-            out_alpha[i + 1] = 0.0
-        else:
-            out_alpha[i + 1] = accel_terms(theta, st, omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
+        if want_alpha:
+            out_alpha[i + 1] = sample_alpha(theta, st, omega, ti, s, kc, forcing, t_start, h)

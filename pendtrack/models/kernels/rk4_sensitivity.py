@@ -15,7 +15,7 @@ import numpy as np
 from pendtrack.models.kernels.folds import (
     _SCATTER, accel_terms, direction, forcing_at, grad_friction, grad_smooth, unpack,
 )
-from pendtrack.models.kernels.rk4 import locate_stop
+from pendtrack.models.kernels.rk4 import locate_stop, restart_at_stop, sample_alpha
 from pendtrack.models.kernels.rotation import sin_cos_at
 
 def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
@@ -225,8 +225,7 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     out_omega[0] = omega
     want_alpha = out_alpha.shape[0] > 0
     if want_alpha:
-        out_alpha[0] = 0.0 if s == 0.0 else (
-            accel_terms(theta, st, omega, t_start, s, kc) + forcing_at(forcing, t_start, t_start, h))
+        out_alpha[0] = sample_alpha(theta, st, omega, t_start, s, kc, forcing, t_start, h)
     for j in range(n_p):
         out_dtheta[0, j] = sth[j]
         out_domega[0, j] = som[j]
@@ -279,13 +278,8 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
                     delta[j] = (delta[j] + dtau) if shifted else dtau
                     som[j] = 0.0
                 shifted = True
-                theta = thc
-                st = math.sin(theta)
-                ct = math.cos(theta)
                 omega = 0.0
-                t = t + tc
-                remaining = remaining - tc
-                s = direction(theta, 0.0, t, c, forcing_at(forcing, t, t_start, h))
+                theta, st, ct, t, remaining, s = restart_at_stop(thc, t, tc, remaining, c, forcing, t_start, h)
                 if remaining <= 0.0:
                     break
             if shifted:  # an event at the sub-step's very end (or 16 of them): the pinned state's shift
@@ -306,9 +300,5 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
         for j in range(n_p):
             out_dtheta[i + 1, j] = sth[j]
             out_domega[i + 1, j] = som[j]
-        if not want_alpha:
-            continue
-        if s == 0.0:
-            out_alpha[i + 1] = 0.0
-        else:
-            out_alpha[i + 1] = accel_terms(theta, st, omega, ti, s, kc) + forcing_at(forcing, ti, t_start, h)
+        if want_alpha:
+            out_alpha[i + 1] = sample_alpha(theta, st, omega, ti, s, kc, forcing, t_start, h)
