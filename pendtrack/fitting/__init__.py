@@ -5,6 +5,8 @@ Public API::
     fit_model(model, t, theta, omega, *, options=FitConfig(), model_options=ModelsConfig(),
               alpha=None, ok=None, window=None, observation=None, ...)
         -> FitResult                                 # arrays in; pendtrack.fitting.fitter
+    fit_models(models, t, theta, omega, *, alpha, ok, provenance_extra, provenance_config, options,
+               model_options, source, progress) -> ModelFits   # what `fit` and pt.fit write
     predict(result, model, t) -> (theta, omega)        # the fitted model on any times
     score(result, model, t, theta, omega, *, window=...) -> WindowScore   # held-out cost
     cross_model_relations(classic, fractional) -> CrossModel             # G1 ~ C0/(4 Omega0^2), ...
@@ -30,13 +32,14 @@ from __future__ import annotations
 from pendtrack.fitting.leastsq.cost import COSTS, Observation
 from pendtrack.fitting.cross_model import CrossModel, Relation, cross_model_relations
 from pendtrack.fitting.fitter import check_options, fit_model
+from pendtrack.fitting.models_fit import ModelFits, fit_models
 from pendtrack.fitting.predict import WindowScore, predict, score
 from pendtrack.fitting.leastsq.samples import Record, build_problem, check_record
 from pendtrack.fitting.result import FitResult, ParamEstimate
 from pendtrack.fitting.two_cuboid import TwoCuboidFit, fit_two_cuboid
 
 __all__ = [
-    "COSTS", "CrossModel", "FitResult", "Observation", "ParamEstimate", "Relation", "TwoCuboidFit",
+    "COSTS", "CrossModel", "FitResult", "ModelFits", "Observation", "ParamEstimate", "Relation", "TwoCuboidFit",
     "Record", "WindowScore", "build_problem", "check_options", "check_record", "cross_model_relations", "fit_model",
-    "fit_two_cuboid", "predict", "score",
+    "fit_models", "fit_two_cuboid", "predict", "score",
 ]
