@@ -9,13 +9,9 @@ access, and none of numpy, pandas, OpenCV or numba is imported until one of thos
 
 import sys
 import types
-from importlib.metadata import PackageNotFoundError, version as _version
 from typing import Any
 
-try:
-    __version__ = _version("pendtrack")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
+from pendtrack.version import __version__
 
 #: the library door's names, imported from pendtrack.api on first use
 DOOR = ("track", "angle", "kinematics", "read_record", "fit", "discover", "simulate", "render", "load",

@@ -31,7 +31,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from pendtrack import __version__
+from pendtrack.version import __version__
 from pendtrack.errors import ArtifactError
 
 METADATA_KEY = b"pendtrack"
@@ -414,9 +414,18 @@ def write_json_artifact(payload: Mapping[str, Any], path: str | Path, *, require
     missing = [k for k in required if k not in payload]
     if missing:
         raise ArtifactError(f"missing key '{missing[0]}'", path=path)
-    record = dict(payload) | {"provenance": provenance.to_dict()}
-    text = json.dumps(record, indent=2, default=_json_default, allow_nan=True)
+    text = _json_text(payload, provenance)
     return atomic_write(path, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+
+
+def _json_text(payload: Mapping[str, Any], provenance: Provenance) -> str:
+    record = dict(payload) | {"provenance": provenance.to_dict()}
+    return json.dumps(record, indent=2, default=_json_default, allow_nan=True)
+
+
+def as_written(payload: Mapping[str, Any], provenance: Provenance) -> dict[str, Any]:
+    """What :func:`write_json_artifact` writes of ``payload``, read back: JSON types, provenance included."""
+    return json.loads(_json_text(payload, provenance))
 
 
 def read_json_artifact(path: str | Path, *, required: Iterable[str]) -> dict[str, Any]:

@@ -156,7 +156,7 @@ class FitConfig:
     rung_phase: float = 0.05
     # the coordinates of the Levenberg-Marquardt steps: "decorrelated" = the damping amplitudes at data-derived
     # references (D = C3 x_ref^p; G2 0.5^beta a_ref^p_f) and the time-varying damping's rate and its relative
-    # change (C4/(t_ref - t0), 1/(t_ref - t0)) (pendtrack.fitting.coordinates); "natural" = the model's
+    # change (C4/(t_ref - t0), 1/(t_ref - t0)) (pendtrack.fitting.leastsq.coordinates); "natural" = the model's
     # parameters. Only the steps' path changes: every value is reported in the model's parameters
     coordinates: str = "decorrelated"
 

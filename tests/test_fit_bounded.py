@@ -19,7 +19,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting import fit_model
 from pendtrack.fitting.result import plausibility_flags, split_findings
 from pendtrack.models import get_model, simulate
-from pendtrack.stages.fit import fit_problems
+from pendtrack.fitting.models_fit import fit_problems
 from pendtrack.stages.kinematics import kinematics_stage
 
 STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}

@@ -1,4 +1,4 @@
-"""The decorrelated coordinates of the Levenberg-Marquardt steps (pendtrack.fitting.coordinates)."""
+"""The decorrelated coordinates of the Levenberg-Marquardt steps (pendtrack.fitting.leastsq.coordinates)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from synthetic_problems import FS, synthetic_problem
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import Observation, fit_model
-from pendtrack.fitting.coordinates import fit_coordinates
+from pendtrack.fitting.leastsq.coordinates import fit_coordinates
 from pendtrack.fitting.fitter import check_options
-from pendtrack.fitting.multistart import local_fit
+from pendtrack.fitting.leastsq.local_fits import local_fit
 from pendtrack.fitting.uncertainty import hac_covariance
 from pendtrack.kinematics import savgol_kinematics
 from pendtrack.models import get_model, simulate

@@ -19,11 +19,11 @@ from pendtrack.artifacts import FIT_JSON_KEYS
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import FitResult, Observation, ParamEstimate, build_problem, cross_model_relations, fit_model
-from pendtrack.fitting.cost import residual_vector
+from pendtrack.fitting.leastsq.cost import residual_vector
 from pendtrack.fitting.fitter import check_options
-from pendtrack.fitting.ladder import LadderRules, run_ladder, search_pool
-from pendtrack.fitting.multistart import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
-from pendtrack.fitting.polish import profile_sigmas
+from pendtrack.fitting.leastsq.ladder import LadderRules, run_ladder, search_pool
+from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS, draw_starts, fit_window, local_fit, window_ladder
+from pendtrack.fitting.leastsq.profile import profile_sigmas
 from pendtrack.fitting.search import hopeless_ratio, ladder_growth
 from pendtrack.fitting.uncertainty import hac_covariance, naive_covariance, paper_uncertainty, region_halfwidth
 
@@ -391,7 +391,7 @@ def test_block_bootstrap_gives_finite_errors():
 
 def test_savgol_pair_kernel_matches_twin_and_numpy():
     # the model's observation filter: numba kernel, its pure-Python twin and np.convolve agree
-    from pendtrack.fitting.cost import _coeffs, filter_kernel, savgol_pair_py
+    from pendtrack.fitting.leastsq.cost import _coeffs, filter_kernel, savgol_pair_py
 
     x = np.cumsum(np.random.default_rng(3).normal(size=500)) * 1e-2
     c0 = _coeffs(25, 3, 0, 1.0)[::-1].copy()
@@ -412,7 +412,7 @@ def test_half_angle_sine_kernel_matches_twin_and_numpy():
     # A_theta = sin(theta/2) of the model in the Xi^2 residual: range reduction by pi (exact to
     # ~86 bits) and a Taylor polynomial whose truncation is < 4e-18, so only rounding is left:
     # a few 1e-16 absolute, relative too near theta = 0 (no cancellation in r (1 - ...))
-    from pendtrack.fitting.cost import half_angle_sine_py, half_sine_kernel
+    from pendtrack.fitting.leastsq.cost import half_angle_sine_py, half_sine_kernel
 
     rng = np.random.default_rng(4)
     theta = np.concatenate([rng.uniform(-7.0, 7.0, 3000), rng.uniform(-200.0, 200.0, 1000),

@@ -16,8 +16,8 @@ import pytest
 
 from pendtrack.config import FitConfig
 from pendtrack.fitting import Observation, fit_model
-from pendtrack.fitting.estimates import equation_error_estimates, oscillation_center
-from pendtrack.fitting.multistart import FINAL_ITERATIONS
+from pendtrack.fitting.leastsq.equation_error import equation_error_estimates, oscillation_center
+from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 from pendtrack.fitting.result import plausibility_flags
 from pendtrack.kinematics import savgol_kinematics
 from pendtrack.models import compose, get_model, simulate
@@ -183,7 +183,7 @@ def test_a_held_offset_is_the_models_zero():
     """``fixed={"theta_off": x}``: the start of the model's angle is the data's less x, and the fit keeps x."""
     from pendtrack.config import ModelsConfig
     from pendtrack.fitting.estimate import estimate
-    from pendtrack.fitting.record import Record
+    from pendtrack.fitting.leastsq.samples import Record
 
     t, theta, omega, alpha, ok, obs = record(lambda th: th + OFFSET)
     rec = Record(t, theta, omega, alpha=alpha, ok=ok, observation=obs)

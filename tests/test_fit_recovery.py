@@ -21,7 +21,7 @@ import pytest
 
 from pendtrack.config import FitConfig
 from pendtrack.fitting import Observation, fit_model
-from pendtrack.fitting.multistart import FINAL_ITERATIONS
+from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 from pendtrack.kinematics import savgol_kinematics
 from pendtrack.models import get_model, simulate
 

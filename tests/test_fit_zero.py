@@ -18,8 +18,9 @@ from click.testing import CliRunner
 from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_json_artifact, write_artifact
 from pendtrack.cli import cli
 from pendtrack.config import Config
+from pendtrack.fitting.models_fit import fits_offset
 from pendtrack.models import get_model, simulate
-from pendtrack.stages.fit import fit_stage, fits_offset
+from pendtrack.stages.fit import fit_stage
 from pendtrack.stages.kinematics import zero_reference
 from pendtrack.tables import read_record
 
@@ -120,3 +121,19 @@ def test_run_report_states_the_fitted_zero():
     run = SimpleNamespace(fits=fits, extra=lambda kind: {"zero_reference": "vertical"} if kind == "kinematics" else {})
     assert zero_offsets(run) == "classic: 12.300 ± 0.040 mrad (zero reference: vertical)"
     assert zero_offsets(SimpleNamespace(fits={"opa": fits["opa"]}, extra=lambda kind: {})) == ""
+
+
+def test_the_filter_comes_from_the_kinematics_provenance() -> None:
+    # the data's Savitzky-Golay filter: the facts' window first, else the window in seconds of the
+    # config at the record's step, else none (the model compared unfiltered)
+    from pendtrack.fitting import Observation
+    from pendtrack.fitting.models_fit import observation_from
+    from pendtrack.kinematics import window_points
+
+    t = np.arange(600) / 120.0
+    obs = observation_from({"window_points": 31, "order": 3}, {}, t)
+    assert (obs.savgol_window, obs.savgol_order, obs.smooth_theta) == (31, 3, True)
+    obs = observation_from({}, {"kinematics": {"savgol_window_s": 0.2, "savgol_order": 2}}, t)
+    assert (obs.savgol_window, obs.savgol_order) == (window_points(0.2, 1 / 120.0, 2), 2)
+    assert obs.savgol_window != 31
+    assert observation_from({}, {}, t).savgol_window == Observation().savgol_window

@@ -294,8 +294,8 @@ def test_layout_is_derived_from_the_declarations() -> None:
 def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
     # a declaration alone gives its parameters, slots, packing and contribution (here a
     # hypothetical linear drag in theta, declared outside the catalogue to leave it untouched)
-    from pendtrack.models import kernels
     from pendtrack.models.declare import Layout, ParamSpec, Slot, Term
+    from pendtrack.models.kernels import folds
 
     extra = Term("spring", "smooth", (ParamSpec("Ks", "1/s^2", 0.0, np.inf, False, True, "test spring"),),
                  "-Ks theta", "test", slots=(Slot("SPRING"),), pack=lambda p: {"SPRING": p["Ks"]},
@@ -305,12 +305,12 @@ def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
     assert lay.size == T.N_COEFFS + 1
     c = lay.pack(("viscous", "spring"), {"Omega0": 2.0, "C1": 0.1, "Ks": 3.0})
     assert c[lay.index["SPRING"]] == 3.0 and c[lay.index["VISC"]] == 0.1
-    smooth = kernels._smooth_add(kernels._smooth_seed(T.BASE.fn, *lay.span(T.BASE)), extra.fn, *lay.span(extra))
+    smooth = folds._smooth_add(folds._smooth_seed(T.BASE.fn, *lay.span(T.BASE)), extra.fn, *lay.span(extra))
     theta, omega = np.array([0.3, -0.2]), np.array([1.0, 2.0])
     a = smooth(theta, np.sin(theta), omega, 0.0, tuple(c.tolist()))
     np.testing.assert_allclose(a, -4.0 * np.sin(theta) - 3.0 * theta, rtol=1e-15)
     # its derivative formula enters the sensitivity kernel's fold the same way
-    grad = kernels._grad_smooth_add(kernels._grad_smooth_add(None, T.BASE.dfn, *lay.span(T.BASE), always=True),
+    grad = folds._grad_smooth_add(folds._grad_smooth_add(None, T.BASE.dfn, *lay.span(T.BASE), always=True),
                                     extra.dfn, *lay.span(extra))
     k, kn = tuple(c.tolist()), (0.0,) * lay.size
     a_th, a_om, dcs = grad(theta[0], np.sin(theta[0]), np.cos(theta[0]), omega[0], 0.0, k, kn)
@@ -323,12 +323,19 @@ def test_a_new_declared_term_enters_pack_and_the_folds() -> None:
 def test_kernel_cache_is_keyed_on_the_declarations() -> None:
     # numba keys its cache on the kernel's own file; the declarations' source enters the key
     # through the stamped closure, so a changed term cannot load a stale kernel
+    import pkgutil
+
     from pendtrack.models import kernels
+    from pendtrack.models.kernels import jit
 
     stamp = kernels.declarations_stamp()
     assert stamp == kernels.declarations_stamp() and len(stamp) == 64
-    run = kernels._stamped(kernels.pc_kernel_py, stamp)
+    run = jit._stamped(kernels.pc_kernel_py, stamp)
     assert stamp in [cell.cell_contents for cell in run.__closure__]
+    # the kernels live in several files but numba compiles them behind jit.py's closure: every other
+    # module of the package must be in the stamp, or a changed kernel would load a stale compilation
+    package = {f"{kernels.__name__}.{m.name}" for m in pkgutil.iter_modules(kernels.__path__)}
+    assert set(jit.KERNEL_MODULES) == package - {jit.__name__}
 
 
 def test_accel_checks_the_declared_domain_and_ignores_measurement_terms() -> None:

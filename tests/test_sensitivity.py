@@ -15,7 +15,7 @@ import pytest
 from synthetic_problems import FS, synthetic_problem
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting.multistart import local_fit
+from pendtrack.fitting.leastsq.local_fits import local_fit
 from pendtrack.fitting.uncertainty import hac_covariance
 from pendtrack.models import get_model
 from pendtrack.models import terms as T
@@ -323,7 +323,7 @@ def test_the_steering_jacobian_is_close_and_leads_to_the_same_minimum(name):
 def test_the_ladders_shorter_windows_integrate_coarser_and_the_start_ends_where_it_did(name):
     from dataclasses import replace
 
-    from pendtrack.fitting.multistart import window_ladder, windows
+    from pendtrack.fitting.leastsq.local_fits import window_ladder, windows
 
     prob, x = _problem(name, seconds=20.0, seed=5)
     prob = replace(prob, substep_phase=FitConfig().substep_phase)  # the fits' 2 sub-steps at 120 fps

@@ -226,7 +226,7 @@ def test_pc_solution_is_smooth_in_the_friction_amplitude() -> None:
 def test_sin_cos_rotation_matches_libm() -> None:
     # the predictor-corrector's sin/cos update: rotation of exact values by the angle step with
     # Taylor polynomials; truncation < 2e-17 for |d| <= 0.5, so only rounding (a few ulp) is left
-    from pendtrack.models.kernels import SINCOS_STEP_MAX, sin_cos_after
+    from pendtrack.models.kernels.rotation import SINCOS_STEP_MAX, sin_cos_after
 
     rng = np.random.default_rng(5)
     x0 = rng.uniform(-7.0, 7.0, 2000)
@@ -242,7 +242,8 @@ def test_memory_pow_series_matches_libm(pf: float) -> None:
     # (truncation < 1e-17 by construction) with a libm pow every REFRESH_STEPS steps and
     # wherever x changes by more than the series' range: only rounding is left, a few ulp a
     # step over at most REFRESH_STEPS steps, so 1e-14 relative (measured <= 4.4e-15)
-    from pendtrack.models.kernels import POW_SERIES_DEGREE, REFRESH_STEPS, binomial_series, memory_pair_next
+    from pendtrack.models.kernels.predictor_corrector import POW_SERIES_DEGREE, binomial_series, memory_pair_next
+    from pendtrack.models.kernels.rotation import REFRESH_STEPS
 
     c = get_model("fractional").pack({"Omega0": 5.05, "G1": 1e-4, "G2": 1e-3, "beta": 0.5, "p_f": pf})
     omega = _run(c, 4000, 1 / 120, 3.0, 0.0, 100)[1]

@@ -1,4 +1,4 @@
-"""Model fits: :func:`fit` (the `fit` stage) and its results, :class:`FitSet` and :class:`ModelFit`."""
+"""Model fits: :func:`fit` (the `fit` stage's core function) and its results, :class:`FitSet` and :class:`ModelFit`."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ import pandas as pd
 from pendtrack.api.frames import staged, workdir
 from pendtrack.api.options import FIT, configure
 from pendtrack.config import Config
-from pendtrack.errors import FitError
 
 SUMMARY_KEYS = ("converged", "trustworthy", "xi2_min", "rms", "aic", "bic", "n")
 
@@ -152,7 +151,8 @@ def fitset_from_run(run: Any) -> FitSet | None:
 
 def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, config: Config | str | Path | None = None,
         out: str | Path | None = None, progress: bool = False, **options: Any) -> FitSet:
-    """Fit models to a record: the `fit` stage (``pendtrack fit``), the same fit to the last digit.
+    """Fit models to a record: :func:`pendtrack.fitting.models_fit.fit_models`, as ``pendtrack fit`` calls it
+    (the same fits to the last digit).
 
     Parameters
     ----------
@@ -174,15 +174,23 @@ def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, conf
     -------
     FitSet
     """
-    from pendtrack.report.load import load_run
-    from pendtrack.stages.fit import fit_stage
+    from pendtrack.artifacts import Provenance, as_written, inputs_for
+    from pendtrack.fitting.models_fit import check_models
+    from pendtrack.stages.fit import fit_artifact, fit_sections, write_fits
+    from pendtrack.stages.kinematics import kinematics_input
 
     cfg = configure(config, options, FIT, what="pt.fit")
-    names = (models,) if isinstance(models, str) else (tuple(models) if models else None)
-    with staged(record, what="pt.fit") as src, workdir(out) as folder:
-        fit_stage(src, out_dir=folder, config=cfg, models=names, force=True, progress=progress)
-        result = fitset_from_run(load_run(folder))
-    if result is None:
-        raise FitError("the fit stage wrote no fit")
-    return result
-
+    names = (models,) if isinstance(models, str) else tuple(models or cfg.fit.models)
+    check_models(names, source="pt.fit")
+    with staged(record, what="pt.fit") as src:  # read as the CLI's stage reads its file
+        art, input_sections = kinematics_input(src, config=cfg)
+        inputs = inputs_for(src)
+        fits = fit_artifact(art, names, config=cfg, source=str(src), progress=progress)
+    prov = Provenance(stage="fit", config=fit_sections(cfg, input_sections, names), inputs=inputs, extra=fits.facts)
+    if out is not None:
+        with workdir(out) as folder:
+            write_fits(fits, folder, prov)
+    curves = pd.DataFrame(fits.curves)
+    order = sorted(fits.records, key=lambda n: fits.files[n])  # as pt.load reads a folder: by file name
+    return FitSet({n: ModelFit(n, as_written(fits.records[n], prov), curves[curves["model"] == n].reset_index(drop=True))
+                   for n in order}, as_written(fits.combined, prov))

@@ -14,7 +14,7 @@ from typing import Any
 
 import click
 
-from pendtrack import __version__
+from pendtrack.version import __version__
 from pendtrack.errors import PendtrackError
 
 # command name -> (module, function, one-line help shown by `pendtrack --help`)

@@ -96,7 +96,7 @@ def _effect(finding: str) -> str:
 def exit_on_fit_problems(facts: dict[str, Any]) -> None:
     """The exit rule of `fit` and `run`: exit 1, after one warning per model, if a fit is not
     trustworthy (not converged or a parameter flagged); return otherwise (exit 0)."""
-    from pendtrack.stages.fit import fit_problems
+    from pendtrack.fitting.models_fit import fit_problems
 
     problems = fit_problems(facts)
     for name, why in problems.items():

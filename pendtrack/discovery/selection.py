@@ -164,14 +164,14 @@ def _simulate(model, summary: FitSummary, t: np.ndarray,  # noqa: ANN001
 def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
     """The options of discovery's fits (:func:`pendtrack.fitting.fit_model`).
 
-    Every start may take :data:`~pendtrack.fitting.multistart.FINAL_ITERATIONS` Jacobians' worth
+    Every start may take :data:`~pendtrack.fitting.leastsq.local_fits.FINAL_ITERATIONS` Jacobians' worth
     (discovery runs few starts), no profile sigmas (not reported), and the refine step's
     trust-region polish (the fitted models are sloppy: a second optimiser guards against one
     that stopped short in a long valley). The training fit starts within
     :data:`TRAIN_START_SPREAD` of a warm start; the whole-record fit, warm-started at a
     training fit whose basin is known, runs that one start without the growing windows.
     """
-    from pendtrack.fitting.multistart import FINAL_ITERATIONS
+    from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 
     fit = FitConfig(cost=task.cost, n_starts=task.n_starts, start_budget=FINAL_ITERATIONS, profile=False,
                     trust_region_polish=True)

@@ -1,7 +1,7 @@
 """Data-derived starting values for a new term's parameters (never a truth).
 
 The fitting package already starts every parameter from an equation-error fit of the data
-(:mod:`pendtrack.fitting.estimates`); on a noisy acceleration that can leave a weak term at
+(:mod:`pendtrack.fitting.leastsq.equation_error`); on a noisy acceleration that can leave a weak term at
 zero, its shape parameters at the edge of their grid, or the old parameters far from their
 optimum. So each candidate also gets a few *scaled* starts from the current model's fit:
 the term's shape parameters at plain values (memory: beta, p_f around the

@@ -1,10 +1,10 @@
 """Step 1 of a fit, *estimate*: the problem, model-free facts and the start ranges, from the data only.
 
 :func:`estimate` maps the record's usable samples onto the simulation grid
-(:func:`pendtrack.fitting.record.build_problem`), takes the model-free facts (Omega0 from the
+(:func:`pendtrack.fitting.leastsq.samples.build_problem`), takes the model-free facts (Omega0 from the
 turning points, Savitzky-Golay-bias corrected; the initial state from the first usable sample)
 and the equation-error estimates of every model parameter
-(:func:`pendtrack.fitting.estimates.equation_error_estimates`), and sets the centre and
+(:func:`pendtrack.fitting.leastsq.equation_error.equation_error_estimates`), and sets the centre and
 half-widths of the start ranges and the typical magnitude of each fitted parameter (the
 finite-difference steps). Nothing is simulated.
 """
@@ -20,10 +20,10 @@ import numpy as np
 
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.errors import FitError, PendtrackError
-from pendtrack.fitting.estimates import DataSummary, Estimates, equation_error_estimates
-from pendtrack.fitting.problem import FitProblem, Simulator
-from pendtrack.fitting.coordinates import fit_coordinates
-from pendtrack.fitting.record import Record, build_problem, uniform_series
+from pendtrack.fitting.leastsq.equation_error import DataSummary, Estimates, equation_error_estimates
+from pendtrack.fitting.leastsq.problem import FitProblem, Simulator
+from pendtrack.fitting.leastsq.coordinates import fit_coordinates
+from pendtrack.fitting.leastsq.samples import Record, build_problem, uniform_series
 
 THETA0_SPREAD = 0.02  # start half-width of the initial angle [rad] (~7x the tracking noise)
 OMEGA0_STATE_SPREAD = 0.1  # start half-width of the initial angular velocity [rad/s]
@@ -76,7 +76,7 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     record : Record
     options : FitConfig
         Uses ``cost``, ``start_spread``, ``omega0_spread`` and ``coordinates`` (the steps' coordinates
-        from the data: :func:`pendtrack.fitting.coordinates.fit_coordinates`).
+        from the data: :func:`pendtrack.fitting.leastsq.coordinates.fit_coordinates`).
     model_options : ModelsConfig
         Memory of the models with the memory term (``memory_s`` [s], ``full_history``) and the
         predictor-corrector's largest step (``max_step_s`` [s]).

@@ -1,6 +1,6 @@
 """Fit a model to a record: :func:`fit_model` (arrays in, :class:`FitResult` out).
 
-An output-error fit (see :mod:`pendtrack.fitting.cost` for the cost) in five steps, each a
+An output-error fit (see :mod:`pendtrack.fitting.leastsq.cost` for the cost) in five steps, each a
 function of its own module:
 
 1. **estimate** (:func:`pendtrack.fitting.estimate.estimate`): the usable samples on the
@@ -19,7 +19,7 @@ config) or :class:`pendtrack.config.ModelsConfig` (``[models]``): a library call
 with the defaults run the same fit.
 
 The paper used simulated annealing (``amebsa``); multi-start bounded Levenberg-Marquardt least
-squares on the residual vector (:mod:`pendtrack.fitting.lm`) is the modern equivalent: each start
+squares on the residual vector (:mod:`pendtrack.fitting.leastsq.lm`) is the modern equivalent: each start
 descends to the bottom of its basin with far fewer model evaluations, and the many starts search
 for the global minimum.
 """
@@ -34,10 +34,10 @@ import numpy as np
 
 from pendtrack.config import FIT_COORDINATES, FitConfig, ModelsConfig
 from pendtrack.errors import FitError
-from pendtrack.fitting.cost import COSTS, Observation
+from pendtrack.fitting.leastsq.cost import COSTS, Observation
 from pendtrack.fitting.estimate import estimate
-from pendtrack.fitting.problem import JACOBIANS, Simulator
-from pendtrack.fitting.record import Record
+from pendtrack.fitting.leastsq.problem import JACOBIANS, Simulator
+from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.refine import refine
 from pendtrack.fitting.result import FitResult, build_result
 from pendtrack.fitting.search import search
@@ -80,7 +80,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         From :func:`pendtrack.models.get_model` or :func:`pendtrack.models.compose`.
     t, theta, omega : ndarray
         Sample times [s] (uniformly spaced, samples may be missing), measured angle [rad] and
-        angular velocity [rad/s]: as in :class:`pendtrack.fitting.record.Record`.
+        angular velocity [rad/s]: as in :class:`pendtrack.fitting.leastsq.samples.Record`.
     options : FitConfig, optional
         The method (``[fit]`` of the config): cost, starts, 5/4 rule, start spreads, start
         budget, growing windows, trust-region polish, profile sigmas, bootstrap; default
@@ -120,7 +120,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         Name of the data in error messages.
     pool : ProcessPool, optional
         Worker processes for the starts, kept by the caller across fits
-        (:func:`pendtrack.fitting.ladder.search_pool`: a fit stage's models start them once), also
+        (:func:`pendtrack.fitting.leastsq.ladder.search_pool`: a fit stage's models start them once), also
         running the profile sigmas' sides; default: ``workers`` processes started for the search.
 
     Returns

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import FitError
-from pendtrack.fitting.cost import Observation
-from pendtrack.fitting.record import GRID_TOL, interior
-from pendtrack.fitting.problem import STATE_NAMES, FitProblem, Simulator
+from pendtrack.fitting.leastsq.cost import Observation
+from pendtrack.fitting.leastsq.samples import GRID_TOL, interior
+from pendtrack.fitting.leastsq.problem import STATE_NAMES, FitProblem, Simulator
 from pendtrack.fitting.result import FitResult
 
 

@@ -6,7 +6,7 @@ the models' sloppy valleys, so the best start is finished here, in this order:
 1. **continuation**: if its own budget ran out, Levenberg-Marquardt goes on from it with a
    larger budget (:data:`POLISH_ITERATIONS` Jacobians' worth) and central differences;
 2. **profile polish** of a model with memory: the profile cost over ``beta`` is minimised
-   (:func:`pendtrack.fitting.polish.profile_polish`), then one free fit -- the fractional
+   (:func:`pendtrack.fitting.leastsq.profile.profile_polish`), then one free fit -- the fractional
    model's beta-G2 valley, where the "converged" point can sit standard errors up the valley;
 3. **trust-region polish** (``[fit] trust_region_polish``, on in discovery): a trust-region
    least-squares run (:func:`scipy.optimize.least_squares`, ``trf``, Jacobian scaling) from the
@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting.multistart import StartOutcome, local_fit
-from pendtrack.fitting.polish import profile_polish
-from pendtrack.fitting.problem import FitProblem
+from pendtrack.fitting.leastsq.local_fits import StartOutcome, local_fit
+from pendtrack.fitting.leastsq.profile import profile_polish
+from pendtrack.fitting.leastsq.problem import FitProblem
 
 POLISH_ITERATIONS = 300  # budget (in Jacobians' worth) to finish the best start if its own budget ran out
 PROFILE_ALONG = "beta"  # the best fit of a model with memory is finished by a profile over this

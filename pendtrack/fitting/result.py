@@ -48,7 +48,7 @@ from pendtrack.fitting.estimate import _floor
 if TYPE_CHECKING:
     from pendtrack.config import FitConfig, ModelsConfig
     from pendtrack.fitting.estimate import Setup
-    from pendtrack.fitting.multistart import StartOutcome
+    from pendtrack.fitting.leastsq.local_fits import StartOutcome
     from pendtrack.fitting.search import Search
     from pendtrack.fitting.uncertainty import Uncertainty
 

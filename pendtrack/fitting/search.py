@@ -1,9 +1,9 @@
 """Step 2 of a fit, *search*: seeded starts around the estimates, each a growing-window local fit.
 
-:func:`search` draws ``n_starts`` starts (:func:`pendtrack.fitting.multistart.draw_starts`;
+:func:`search` draws ``n_starts`` starts (:func:`pendtrack.fitting.leastsq.local_fits.draw_starts`;
 start 0 is the estimate itself), adds any complete start vectors the caller gives (a warm
 start from an earlier model, say), and runs a local least-squares fit from each over the
-growing-window ladder (:func:`pendtrack.fitting.multistart.window_ladder`: Omega0 and the
+growing-window ladder (:func:`pendtrack.fitting.leastsq.local_fits.window_ladder`: Omega0 and the
 phase are pinned on three periods before the long record is seen), in worker processes.
 """
 
@@ -18,8 +18,8 @@ import numpy as np
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import Setup
-from pendtrack.fitting.ladder import LadderRules, run_ladder
-from pendtrack.fitting.multistart import StartOutcome, draw_starts, inside_bounds, window_ladder
+from pendtrack.fitting.leastsq.ladder import LadderRules, run_ladder
+from pendtrack.fitting.leastsq.local_fits import StartOutcome, draw_starts, inside_bounds, window_ladder
 from pendtrack.parallel import ProcessPool
 
 
@@ -83,7 +83,7 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     options : FitConfig
         Uses ``n_starts``, ``ladder``, ``ladder_growth`` (or ``ladder_growth_memory`` for a model with
         memory), ``start_budget``, ``hopeless_ratio`` (or ``hopeless_ratio_memory``) and ``merge_tol``
-        (:class:`pendtrack.fitting.ladder.LadderRules`: which starts end before the whole window).
+        (:class:`pendtrack.fitting.leastsq.ladder.LadderRules`: which starts end before the whole window).
     seed : int
         Seed of the start draws.
     workers : int
@@ -94,7 +94,7 @@ def search(setup: Setup, *, options: FitConfig, seed: int, workers: int,
     on_progress : callable, optional
         Called with 1 after each start.
     pool : ProcessPool, optional
-        Worker processes kept across searches (:func:`pendtrack.fitting.ladder.search_pool`); used
+        Worker processes kept across searches (:func:`pendtrack.fitting.leastsq.ladder.search_pool`); used
         instead of ``workers`` new ones.
     """
     problem = setup.problem

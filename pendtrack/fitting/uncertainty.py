@@ -8,7 +8,7 @@ Three numbers per parameter:
     stopped anywhere inside the valley) the accepted starts meet at the same minimum unless the
     landscape has several nearly equal minima, so ``u_paper`` measures *multimodality*, and is
     often far below the statistical error. Over every start's end point: a start merged with
-    another on the growing windows (:mod:`pendtrack.fitting.ladder`) counts with that one's.
+    another on the growing windows (:mod:`pendtrack.fitting.leastsq.ladder`) counts with that one's.
 ``u_region``
     The half-width of the region Xi^2 <= (5/4) Xi^2_min itself, from the quadratic expansion at
     the optimum: what the paper's procedure tends to when the sampler explores the whole valley.
@@ -21,7 +21,7 @@ Three numbers per parameter:
     ~25 samples; a slightly wrong model leaves residuals at the pendulum's period), so the
     textbook ``s^2 (J^T J)^-1`` would be too small by a large factor.
 
-Optionally the profile-likelihood sigmas on each side (:func:`pendtrack.fitting.polish.profile_sigmas`)
+Optionally the profile-likelihood sigmas on each side (:func:`pendtrack.fitting.leastsq.profile.profile_sigmas`)
 and a moving-block bootstrap (:func:`bootstrap_problems`: refits of data rebuilt as best-fit
 model plus moving blocks of the residuals).
 
@@ -40,10 +40,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting.cost import channels
-from pendtrack.fitting.multistart import StartOutcome, run_tasks
-from pendtrack.fitting.polish import profile_sigmas
-from pendtrack.fitting.problem import FD_REL, STATE_NAMES, FitProblem
+from pendtrack.fitting.leastsq.cost import channels
+from pendtrack.fitting.leastsq.local_fits import StartOutcome, run_tasks
+from pendtrack.fitting.leastsq.profile import profile_sigmas
+from pendtrack.fitting.leastsq.problem import FD_REL, STATE_NAMES, FitProblem
 
 if TYPE_CHECKING:
     from pendtrack.fitting.search import Search

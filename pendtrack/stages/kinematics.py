@@ -71,10 +71,10 @@ def read_input(path: str | Path, *, table: TableSpec | None = None, min_samples:
         raise
 
 
-#: Where a record's zero of theta comes from (:func:`zero_reference`): a measured rest or the renderer's
-#: truth (``"rest"``, ``"truth"``), the image vertical (``"vertical"``), a plain table's own convention
-#: (``"table"``), or not recorded (``"unknown"``, e.g. an artifact written by a test or an older version).
-ZERO_NOT_MEASURED = ("vertical", "table")
+# Where a record's zero of theta comes from (:func:`zero_reference`): a measured rest or the renderer's
+# truth ("rest", "truth"), the image vertical ("vertical"), a plain table's own convention ("table"),
+# or not recorded ("unknown", e.g. an artifact written by a test or an older version). The fit reads
+# it (pendtrack.fitting.models_fit.ZERO_NOT_MEASURED).
 
 
 def zero_reference(rec: Record) -> str:

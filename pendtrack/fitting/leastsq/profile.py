@@ -19,8 +19,8 @@ from concurrent.futures import Executor
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from pendtrack.fitting.multistart import StartOutcome, local_fit
-from pendtrack.fitting.problem import FitProblem
+from pendtrack.fitting.leastsq.local_fits import StartOutcome, local_fit
+from pendtrack.fitting.leastsq.problem import FitProblem
 
 PROFILE_XTOL = 2e-4  # Brent's tolerance on the profiled parameter (beta's standard error is ~3e-2)
 PROFILE_BRACKET = 0.02  # first bracket half-width; Brent's bracketing walks downhill from it

@@ -2,7 +2,7 @@
 
 The paper minimised Xi^2 with simulated annealing (``amebsa``) from 150 random initial
 estimates. Here every start runs a bounded Levenberg-Marquardt fit with geodesic acceleration
-(:mod:`pendtrack.fitting.lm`) on the residual vector, which converges to the bottom of its
+(:mod:`pendtrack.fitting.leastsq.lm`) on the residual vector, which converges to the bottom of its
 basin in a few dozen to a few hundred simulations; the 150 starts then play the
 role annealing played: exploring basins, giving Xi^2_min and the paper's spread uncertainty.
 
@@ -14,26 +14,25 @@ landscape then has a local minimum every period. Each start therefore fits a *gr
 the previous optimum, and so on up to the whole record. Omega0 is pinned to ~1e-3 by the
 first window, to ~1e-4 by the next ones, before the long record is seen.
 
-The search runs the ladder window by window (:func:`pendtrack.fitting.ladder.run_ladder`:
+The search runs the ladder window by window (:func:`pendtrack.fitting.leastsq.ladder.run_ladder`:
 duplicates merged between windows); :func:`run_tasks` runs whole :func:`local_fit` tasks (the
 bootstrap's refits). Starts run in parallel in worker processes (:func:`pendtrack.parallel.process_pool`: ``spawn``
 context, one BLAS/OpenMP/numba thread per worker); each task receives the pickled
-:class:`~pendtrack.fitting.problem.FitProblem` (plain arrays) and one start vector. Workers
+:class:`~pendtrack.fitting.leastsq.problem.FitProblem` (plain arrays) and one start vector. Workers
 warm the simulator once (numba kernels load from their ``cache=True`` cache or compile).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from dataclasses import dataclass
 
 import numpy as np
 
-from pendtrack.fitting.coordinates import BoundCoordinates
-from pendtrack.fitting.lm import levenberg_marquardt, sumsq
-from pendtrack.fitting.problem import FitProblem
+from pendtrack.fitting.leastsq.coordinates import BoundCoordinates
+from pendtrack.fitting.leastsq.lm import levenberg_marquardt, sumsq
+from pendtrack.fitting.leastsq.problem import FitProblem
 from pendtrack.parallel import process_pool, worker_count
 
 FINAL_TOL = 1e-8  # ftol/xtol on the whole window: a 0.01-0.03 standard-error change of a parameter
@@ -295,7 +294,7 @@ def local_fit(problem: FitProblem, x0: np.ndarray, window_ends: Sequence[float],
               max_nfev: int | None = None, central: bool = False) -> StartOutcome:
     """Least squares from ``x0`` over each window of the ladder, warm-starting each from the last.
 
-    Levenberg-Marquardt (:func:`pendtrack.fitting.lm.levenberg_marquardt`), bounds by
+    Levenberg-Marquardt (:func:`pendtrack.fitting.leastsq.lm.levenberg_marquardt`), bounds by
     projection, one :func:`fit_window` per window. The shorter windows only have to pin Omega0
     and the phase, so their evaluations are capped (``RUNG_ITERATIONS`` Jacobians' worth) and
     their tolerance is loose; the whole window is fitted to ``FINAL_TOL``.

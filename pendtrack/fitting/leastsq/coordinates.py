@@ -22,7 +22,7 @@ stop on their budget short of the minimum):
   by ``omega^2``.
 
 Only the path of each Levenberg-Marquardt fit changes: its start points, end points, costs and
-every result are in the model's own parameters (:func:`pendtrack.fitting.multistart.fit_window`
+every result are in the model's own parameters (:func:`pendtrack.fitting.leastsq.local_fits.fit_window`
 converts at the window's ends), and the minimum is the same one. A map is used only when its
 amplitude and at least one of its exponents (or ``C4`` and ``t0``) are fitted, not held.
 Measured on the 60-s bench record: ``pendtrack/fitting/README.md``.

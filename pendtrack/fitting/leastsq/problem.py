@@ -4,7 +4,7 @@ The fitted vector is the model's parameters (in ``model.param_names`` order) fol
 initial state ``theta0`` [rad] and ``omega0`` [rad/s] at the start of the fit window. The
 model is simulated on a uniform grid starting at the window's first sample, mapped through its
 measurement terms (e.g. ``theta_obs = theta + theta_off``), observed the way the data were
-(:class:`~pendtrack.fitting.cost.Observation`) and compared at the data samples.
+(:class:`~pendtrack.fitting.leastsq.cost.Observation`) and compared at the data samples.
 
 A :class:`FitProblem` holds only plain arrays, scalars and the model object, so it pickles
 cheaply into worker processes.
@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import PendtrackError
-from pendtrack.fitting.coordinates import Coordinates
-from pendtrack.fitting.cost import Observation, residual_vector
+from pendtrack.fitting.leastsq.coordinates import Coordinates
+from pendtrack.fitting.leastsq.cost import Observation, residual_vector
 
 STATE_NAMES = ("theta0", "omega0")
 PENALTY = 10.0  # residual value returned where the simulation fails (cost >> any real Xi^2)
@@ -101,7 +101,7 @@ class FitProblem:
     theta, omega : ndarray
         Measured angle [rad] and angular velocity [rad/s] at those samples.
     cost : str
-        ``"xi2"`` or ``"theta"`` (:mod:`pendtrack.fitting.cost`).
+        ``"xi2"`` or ``"theta"`` (:mod:`pendtrack.fitting.leastsq.cost`).
     omega_scale : float
         ``1/(2 Omega0_hat)`` [s/rad].
     observation : Observation
@@ -140,7 +140,7 @@ class FitProblem:
         The ``substep_phase`` of the ladder's shorter windows (:meth:`rung`; ``[fit] rung_phase``); 0 = the same.
     coordinates : Coordinates or None
         The coordinates the Levenberg-Marquardt steps take (``[fit] coordinates``;
-        :mod:`pendtrack.fitting.coordinates`); None: the parameters themselves. Never changes
+        :mod:`pendtrack.fitting.leastsq.coordinates`); None: the parameters themselves. Never changes
         :meth:`residuals` or any value outside a window's fit.
     """
 
@@ -211,7 +211,7 @@ class FitProblem:
 
         The model's angle goes through its measurement terms first (``Model.observe_state``:
         ``theta_obs = f(theta)``, ``omega_obs = f'(theta) omega``), then through the data's
-        filter (:class:`~pendtrack.fitting.cost.Observation`): the camera measures the observed
+        filter (:class:`~pendtrack.fitting.leastsq.cost.Observation`): the camera measures the observed
         angle, and the pipeline filters what it measured.
 
         Returns
@@ -464,7 +464,7 @@ class FitProblem:
         against 1e-5 and 1e-5 for the simulation's 3 sub-steps (tests/test_sensitivity.py).
 
         The observed curves' derivatives (:meth:`simulate_sensitivities`) at the data samples,
-        through the cost's chain rule (:func:`pendtrack.fitting.cost.residual_vector`): for
+        through the cost's chain rule (:func:`pendtrack.fitting.leastsq.cost.residual_vector`): for
         ``"xi2"`` ``d r_theta = cos(theta/2)/2 d theta / sqrt(N)`` (``A_theta = sin(theta/2)``) and
         ``d r_omega = omega_scale d omega / sqrt(N)``; ``omega_scale = 1/(2 Omega0_hat)`` is the
         fixed, data-derived scale (not the fitted Omega0: no term by Omega0 through the scale);

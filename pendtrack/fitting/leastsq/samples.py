@@ -15,9 +15,9 @@ import numpy as np
 
 from pendtrack.config import MEMORY_S
 from pendtrack.errors import FitError
-from pendtrack.fitting.cost import Observation
-from pendtrack.fitting.estimates import DataSummary, summarize
-from pendtrack.fitting.problem import FitProblem, Simulator, parameter_bounds
+from pendtrack.fitting.leastsq.cost import Observation
+from pendtrack.fitting.leastsq.equation_error import DataSummary, summarize
+from pendtrack.fitting.leastsq.problem import FitProblem, Simulator, parameter_bounds
 
 GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
 
@@ -70,7 +70,7 @@ class Record:
         return mask & np.isfinite(np.asarray(self.alpha, dtype=float))
 
     def summary(self, *, bias_corrected: bool = True) -> DataSummary:
-        """Model-free facts of the usable samples (:func:`pendtrack.fitting.estimates.summarize`).
+        """Model-free facts of the usable samples (:func:`pendtrack.fitting.leastsq.equation_error.summarize`).
 
         With ``bias_corrected`` the Omega0 estimate is corrected for the record's
         Savitzky-Golay filter (``observation``).

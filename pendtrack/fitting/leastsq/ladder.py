@@ -1,6 +1,6 @@
 """The search's starts run window by window, each start's fate decided after every shorter window.
 
-:func:`run_ladder` runs :func:`pendtrack.fitting.multistart.local_fit`'s windows one task at a
+:func:`run_ladder` runs :func:`pendtrack.fitting.leastsq.local_fits.local_fit`'s windows one task at a
 time (a task = one start on one window of the growing-window ladder), so that between two
 windows a start can end early in two ways that keep the search's meaning:
 
@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pendtrack.fitting.multistart import StartOutcome, WindowFit, _warm, finish, fit_window, inside_bounds, windows
-from pendtrack.fitting.problem import FitProblem
+from pendtrack.fitting.leastsq.local_fits import StartOutcome, WindowFit, _warm, finish, fit_window, inside_bounds, windows
+from pendtrack.fitting.leastsq.problem import FitProblem
 from pendtrack.parallel import ProcessPool, process_pool, worker_count
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
 from pendtrack.errors import FitError, PendtrackError
-from pendtrack.fitting.problem import parameter_bounds
+from pendtrack.fitting.leastsq.problem import parameter_bounds
 
 MIN_SAMPLES = 60  # below ~0.5 s at 120 fps no model can be told from another
 MIN_HALF_SWINGS = 4  # at least two full periods
