@@ -75,3 +75,18 @@ def test_a_ball_turning_with_the_swing_is_tracked_at_its_turning_points(tmp_path
     got = fit_circle(df.x_px.to_numpy()[ok], df.y_px.to_numpy()[ok])
     assert got.rms < 0.8, got
     assert np.hypot(got.xc - truth.xc, got.yc - truth.yc) < 2.0, (got, truth)
+
+
+def test_a_hand_over_the_ball_with_a_normal_lens_is_never_tracked(tmp_path):
+    # a skin-coloured hand covers the blue ball for the first second (painted over the render), then is gone
+    fv = field_video(tmp_path / "video.mp4", seconds=3.0, fps=30.0, hand_s=1.0, **(CAPPED | dict(marker_shape="ball")))
+    res = invoke("track", fv.path, "--projection", "none", "--marker-color", "blue", "--out", tmp_path / "out", "-q")
+    assert res.exit_code == 0, res.output
+    df = read_artifact(tmp_path / "out" / "track.parquet", "track").data
+    ok = df.ok.to_numpy()
+    vis = fv.visible[df.frame.to_numpy()]
+    assert not ok[~vis].any()  # nothing is tracked on the hand
+    assert ok[vis].mean() >= 0.99
+    err = np.hypot(df.x_px.to_numpy() - fv.spot[df.frame, 0], df.y_px.to_numpy() - fv.spot[df.frame, 1])
+    # a uniform ball: the shading pulls the point ~3.5 px towards the light (test above), never off the ball
+    assert np.nanmax(err[ok]) < 0.5 * fv.radius_px
