@@ -34,7 +34,7 @@ FIT_OFFSETS = ("auto", "always", "never")  # [fit] offset: fit theta's zero (the
 TRACK_REFINE = ("quadratic", "centroid")  # sub-pixel refinement of the template match
 LENS_CHECK_MODES = ("error", "warn", "off")  # what a lens that fits the track clearly worse than another does
 RENDER_MARKER_COLOURS = ("pink", "dark", "blue")  # named looks of the rendered bob (or #RRGGBB)
-RENDER_MARKER_SHAPES = ("spot", "ball")  # a flat disc on the bar | a shaded sphere
+RENDER_MARKER_SHAPES = ("spot", "ball", "shiny")  # a flat disc on the bar | a shaded sphere | a glossy one
 RENDER_RIGS = ("bar", "string")  # the paper's bar | a ball on a string
 
 
@@ -204,7 +204,7 @@ class RenderConfig:
     x264_preset: str = "veryfast"  # libx264 speed preset
     # field conditions (what users film): the marker's look, the rig, the hand, the camera's roll
     marker_color: str = "pink"  # the bob's colour: pink (the paper's spot) | dark | blue | #RRGGBB
-    marker_shape: str = "spot"  # spot (a flat disc on the bar) | ball (a shaded sphere)
+    marker_shape: str = "spot"  # spot (a flat disc on the bar) | ball (a shaded sphere) | shiny (a glossy ball)
     rig: str = "bar"  # bar (the paper's bar, disc and tile) | string (a thin string to the bob, Omega0 = sqrt(g/L))
     sticker_color: str = ""  # a small sticker on the bob, off its centre: "" = none | pink | dark | blue | #RRGGBB
     sticker_radius_m: float = 0.004  # [m]

@@ -13,6 +13,9 @@ then post-processed in BGR before it is encoded with :class:`pendtrack.video.wri
   than the marker (a dark corner of the room: issue 27's first video);
 * ``twin``: a second pendulum's bob beside the first, as large, swinging at 0.8 times its
   frequency with a third of its amplitude (two pendulums in view).
+* ``cap``: the ball's half towards the axle is clear (pale), turning with the pendulum: only
+  the lower half has the marker's colour (issue 27's bauble: a fixed template of it scores
+  0.53-0.7 where the swing turns it most).
 
 ``render`` overrides any ``[render]`` key (the marker's colour and shape, the rig, the lens,
 the renderer's own hand): the painted conditions then take the marker's colour.
@@ -35,6 +38,7 @@ from pendtrack.video.writer import VideoWriter
 
 SKIN_BGR = (140.0, 172.0, 224.0)
 BLUE_BGR = (220.0, 60.0, 30.0)
+CAP_BGR = (200.0, 205.0, 200.0)  # a clear plastic cap, pale
 MARKER_BGR = {"dark": (35.0, 35.0, 40.0), "blue": BLUE_BGR}  # the painted conditions' colour for such markers
 
 
@@ -65,7 +69,8 @@ class FieldVideo:
 
 def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, width: int = 640, height: int = 360,
                 theta0: float = 1.2, hand_s: float = 0.0, poster: bool = False, sticker: bool = False,
-                bead: bool = False, wanderer: bool = False, corner: bool = False, twin: bool = False, seed: int = 0,
+                bead: bool = False, wanderer: bool = False, corner: bool = False, twin: bool = False, cap: bool = False,
+                seed: int = 0,
                 **render: object) -> FieldVideo:
     """Render, post-process and encode; see the module docstring for the conditions."""
     cfg = Config().replace("render", width=width, height=height, fps=fps, seconds=seconds, theta0=theta0,
@@ -109,6 +114,11 @@ def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, wi
                 wx, wy = width * (0.08 + 0.3 * tk), height * (0.9 + 0.04 * np.sin(2 * np.pi * 2.5 * tk))
                 cv2.circle(img, (int(round(4 * wx)), int(round(4 * wy))), int(round(4 * 0.6 * radius)),
                            tuple(float(c) for c in light), -1, lineType=cv2.LINE_AA, shift=2)
+            if cap:
+                qx, qy = scene.project(*scene.to_world(0.5 * scene.spot_distance_m, 0.0, th))
+                up = np.degrees(np.arctan2(qy - sy[k], qx - sx[k]))  # towards the axle
+                cv2.ellipse(img, (int(round(4 * sx[k])), int(round(4 * sy[k]))), (int(round(4 * radius)),) * 2, 0.0,
+                            up - 90.0, up + 90.0, CAP_BGR, -1, lineType=cv2.LINE_AA, shift=2)
             if sticker:
                 qx, qy = scene.project(*scene.to_world(scene.spot_distance_m + 0.3 * scene.spot_radius_m, 0.0, th))
                 cv2.circle(img, (int(round(4 * qx)), int(round(4 * qy))), int(round(4 * 0.35 * radius)),

@@ -228,6 +228,6 @@ def test_a_short_arc_with_the_axle_out_of_frame_gives_theta_with_its_uncertainty
     # theta's error: within its stated scale uncertainty (3 sigma) of the swing, plus the zero's share of it
     # (the axle's x uncertainty over the arm) and the tracking noise (0.1 px / 560 px)
     err = np.abs(th - theta_true)
-    bound = 3 * (unc["theta_scale_rel"] * np.abs(theta_true) + unc["axle_sigma_px"][0] / 560) + 1e-3
+    bound = 3 * (unc["theta_scale_rel"] * np.abs(theta_true) + unc["zero_sigma_rad"]) + 1e-3
     assert np.all(err <= bound), (err.max(), bound.min())
 

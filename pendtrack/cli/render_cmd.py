@@ -50,8 +50,9 @@ def _parse_size(text: str) -> tuple[int, int]:
                    "(config: render.camera_roll_deg, 0).")
 @click.option("--marker-color", default=None, metavar="pink|dark|blue|#RRGGBB",
               help="The bob's colour (config: render.marker_color, pink: the paper's spot).")
-@click.option("--marker-shape", type=click.Choice(["spot", "ball"]), default=None,
-              help="A flat spot on the bar or a shaded ball (config: render.marker_shape, spot).")
+@click.option("--marker-shape", type=click.Choice(["spot", "ball", "shiny"]), default=None,
+              help="A flat spot on the bar, a shaded ball or a shiny ball with a saturated highlight "
+                   "(config: render.marker_shape, spot).")
 @click.option("--rig", type=click.Choice(["bar", "string"]), default=None,
               help="The paper's bar or a ball on a thin string, Omega0 = sqrt(g L / (L^2 + 2 R^2 / 5)) unless "
                    "--param Omega0 (config: render.rig, bar).")

@@ -13,7 +13,8 @@ Motion blur: the output is the mean over the sub-sample angles of the exposure.
 
 Balls (part kind 2): a disc whose reflectance is shaded as a sphere's, Lambert plus a small
 white highlight, under a light fixed in the world (upper left, towards the camera), so the
-shading does not turn with the pendulum.
+shading does not turn with the pendulum. Shiny balls (part kind 3): the same with a glossy
+finish, a small highlight that saturates the sensor (a lamp's reflection on a real ball).
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ BALL_AMBIENT = 0.40  # shade of the ball's side turned away from the light
 BALL_DIFFUSE = 0.75  # Lambert term's weight (0.4 + 0.75 cos: ~0.93 at the ball's centre)
 BALL_SPECULAR = 0.30  # white highlight's peak reflectance
 BALL_SHININESS = 24.0  # Blinn-Phong exponent
+SHINY_SPECULAR = 2.5  # a shiny ball's highlight: well above white, so it clips at 255 in the frame
+SHINY_SHININESS = 60.0  # ... and small (Blinn-Phong exponent of a glossy finish)
 
 
 def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, out_alpha):
@@ -55,7 +58,7 @@ def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, 
         ``n >= 1``; the span of the angles must be well below 1 rad (one exposure).
     parts : ndarray, shape (n_parts, 8), float64
         Parts back to front, see :meth:`pendtrack.render.scene.Scene.parts` (kind 0 a
-        rectangle, 1 a disc, 2 a ball).
+        rectangle, 1 a disc, 2 a ball, 3 a shiny ball).
     out_bgr : ndarray, shape (h, w, 3), float32
         Written: mean over the sub-samples of the pendulum (reflectance x light) over
         ``back``, in 8-bit levels, BGR.
@@ -144,14 +147,18 @@ def _raster_py(xw, yw, size, light, back, x0, y0, sin_t, cos_t, parts, out_bgr, 
                     cov *= parts[k, 7]
                     shade = 1.0
                     gloss = 0.0
-                    if parts[k, 0] == 2.0:  # ball: the sphere's normal from the world offset to its centre
+                    if parts[k, 0] >= 2.0:  # ball: the sphere's normal from the world offset to its centre
                         da = (a - parts[k, 1]) / parts[k, 2]
                         dc = c / parts[k, 2]
                         nx = da * sin_t[s] + dc * cos_t[s]
                         ny = da * cos_t[s] - dc * sin_t[s]
                         nz = math.sqrt(max(1.0 - nx * nx - ny * ny, 0.0))
                         shade = BALL_AMBIENT + BALL_DIFFUSE * max(nx * LIGHT_X + ny * LIGHT_Y + nz * LIGHT_Z, 0.0)
-                        gloss = BALL_SPECULAR * max(nx * HALF_X + ny * HALF_Y + nz * HALF_Z, 0.0) ** BALL_SHININESS
+                        cos_h = max(nx * HALF_X + ny * HALF_Y + nz * HALF_Z, 0.0)
+                        if parts[k, 0] == 3.0:
+                            gloss = SHINY_SPECULAR * cos_h ** SHINY_SHININESS
+                        else:
+                            gloss = BALL_SPECULAR * cos_h ** BALL_SHININESS
                     col_b = col_b * (1.0 - cov) + (parts[k, 4] * shade + gloss) * cov
                     col_g = col_g * (1.0 - cov) + (parts[k, 5] * shade + gloss) * cov
                     col_r = col_r * (1.0 - cov) + (parts[k, 6] * shade + gloss) * cov

@@ -49,6 +49,7 @@ ArrayLike = np.ndarray | float
 RECT = 0.0
 CIRCLE = 1.0
 BALL = 2.0  # a disc shaded as a sphere lit from the upper left (world-fixed light)
+SHINY_BALL = 3.0  # a ball with a glossy finish: a small highlight that saturates
 
 # Reflectances in [0, 1], BGR order (as the frames).
 SPOT_BGR = (0.70, 0.40, 0.98)  # pink
@@ -104,7 +105,8 @@ class Scene:
     marker_bgr : tuple of float
         The bob's reflectance, BGR in [0, 1] (default: the paper's pink spot).
     marker_shape : str
-        ``"spot"`` (a flat disc) or ``"ball"`` (shaded as a sphere).
+        ``"spot"`` (a flat disc), ``"ball"`` (shaded as a sphere) or ``"shiny"`` (a ball
+        with a glossy finish: a small saturated highlight).
     rig : str
         ``"bar"`` (the paper's bar, acrylic disc and tile) or ``"string"`` (a thin cord
         from the axle to the bob, nothing else moves).
@@ -244,8 +246,8 @@ class Scene:
         ndarray, shape (n_parts, 8), float64
             Columns ``kind, p0, p1, p2, b, g, r, opacity``. For ``kind == RECT``:
             ``a`` in ``[p0, p1]``, ``|c| <= p2`` [m]. For ``kind == CIRCLE`` and
-            ``kind == BALL``: centre ``(a, c) = (p0, 0)``, radius ``p1`` [m] (a ball is
-            shaded as a sphere). ``b, g, r`` reflectance in [0, 1].
+            ``kind == BALL`` or ``SHINY_BALL``: centre ``(a, c) = (p0, 0)``, radius ``p1``
+            [m] (a ball is shaded as a sphere). ``b, g, r`` reflectance in [0, 1].
         """
         rows = []
         if self.rig == "string":
@@ -260,7 +262,7 @@ class Scene:
             rows.append((CIRCLE, 0.0, self.disc_radius_m, 0.0, *DISC_BGR, DISC_OPACITY))
             rows.append((CIRCLE, 0.0, BEARING_RADIUS_M, 0.0, *BEARING_BGR, 1.0))
             rows.append((CIRCLE, 0.0, AXLE_RADIUS_M, 0.0, *AXLE_BGR, 1.0))
-        kind = BALL if self.marker_shape == "ball" else CIRCLE
+        kind = {"ball": BALL, "shiny": SHINY_BALL}.get(self.marker_shape, CIRCLE)
         rows.append((kind, self.spot_distance_m, self.spot_radius_m, 0.0, *self.marker_bgr, 1.0))
         if self.sticker_bgr is not None:
             rows.append((CIRCLE, self.spot_distance_m + self.sticker_offset * self.spot_radius_m,

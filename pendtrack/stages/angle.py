@@ -106,7 +106,9 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         scale is uncertain by more than ``MAX_SCALE_REL`` (an arc bending within the noise,
         or no arc about one axle). An arc shorter than ``MIN_ARC_SPAN_DEG`` within it gives
         theta with a warning; ``axle_uncertainty`` in the provenance: the axle's and the
-        radius' standard uncertainties [px] and theta's relative scale uncertainty.
+        radius' standard uncertainties [px], theta's relative scale uncertainty and its zero's
+        uncertainty from the axle's (``zero_sigma_rad``: sigma_x / radius; a fitted theta_off's
+        stderr does not include it).
     ConfigError
         Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is
         clearly not the footage's.
@@ -143,7 +145,9 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         span = float(np.degrees(circle.arc_span))
         sx, sy, sr = circle_uncertainty(xs, ys, circle)
         scale_rel = sr / circle.radius if circle.radius > 0 else np.inf
-        uncertainty = {"axle_sigma_px": [sx, sy], "radius_sigma_px": sr, "theta_scale_rel": scale_rel}
+        # the axle off sideways by dx turns the vertical through it, theta's zero, by dx / radius
+        uncertainty = {"axle_sigma_px": [sx, sy], "radius_sigma_px": sr, "theta_scale_rel": scale_rel,
+                       "zero_sigma_rad": sx / circle.radius if circle.radius > 0 else np.inf}
         if not scale_rel <= MAX_SCALE_REL:
             if span < MIN_ARC_SPAN_DEG:
                 in_frame = _in_frame(circle.xc, circle.yc, art.provenance.extra)

@@ -79,6 +79,14 @@ WHOLE_FRAME_SCORE_BAND = 0.1
 HALF_RES_RADIUS_PX = 24.0
 _BOX3_PEAK = np.ones((3, 3), np.uint8)  # local maxima of the whole-frame scores (read-only)
 MAX_WARPS = 4096  # lens-warped templates kept at most (one per lens Jacobian met; ~8 kB each for the paper's spot)
+# A bob turns with the pendulum: a textured ball (half blue, half clear, issue 27's bauble) is turned by the
+# amplitude at each turning point, where a fixed template scores 0.53-0.7. When the score falls below
+# TURN_SCORE, the template turned one TURN_STEP_DEG further either way is tried too and the better one kept:
+# one step a frame, up to TURN_MAX_STEPS (+-60 deg: a template cut at one turning point of a wide swing),
+# each turned about its centre, the tracked point.
+TURN_SCORE = 0.9
+TURN_STEP_DEG = 5.0
+TURN_MAX_STEPS = 12
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -414,6 +422,10 @@ class MarkerTracker:
         # grid nodes again and again: each warp is computed once, not at every other frame)
         self._warps: dict[tuple[float, float, float, float], tuple[np.ndarray, float]] = {}
         self._anchor = template.image.copy()
+        # turned copies of the template, by steps of TURN_STEP_DEG (not with lens warps or an evolving template)
+        self._turnable = not self._warp and params.evolution_rate == 0
+        self._turns: dict[int, _Template] = {0: template}
+        self.turn = 0
         self._n_evolved = 0
         self.drift_max = 0.0
         self.reanchors = 0
@@ -438,6 +450,38 @@ class MarkerTracker:
             self._warp_jac = jac
         self._warp_key = key
         return self._warped
+
+    def _turned(self, k: int) -> _Template:
+        """The template turned by ``k`` steps of :data:`TURN_STEP_DEG` about its centre (cached)."""
+        if k not in self._turns:
+            t = self._turns[0]
+
+            def turn(img: np.ndarray) -> np.ndarray:
+                c = (img.shape[1] - 1) / 2.0
+                m = cv2.getRotationMatrix2D((c, c), k * TURN_STEP_DEG, 1.0)
+                return cv2.warpAffine(img, m, img.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+            self._turns[k] = _Template(turn(t.image), t.radius, t.contrast, t.background,
+                                       None if t.half_image is None else turn(t.half_image))
+        return self._turns[k]
+
+    def _try_turns(self, y: np.ndarray, u: np.ndarray, v: np.ndarray, px: float, py: float, margin: int,
+                   accepted: tuple | None) -> tuple | None:
+        """The match of the template turned one step either way, when it scores above ``accepted`` (kept)."""
+        p = self.params
+        k0 = self.turn
+        for k in (k0 - 1, k0 + 1):
+            if abs(k) > TURN_MAX_STEPS:
+                continue
+            self.template = self._turned(k)
+            r = self._match_at(y, u, v, px, py, margin)
+            self.template = self._turns[self.turn]
+            if (r is not None and r[0] >= p.min_score and r[7] and not r[3]
+                    and (accepted is None or r[0] > accepted[0])):
+                accepted = r
+                self.turn = k
+        self.template = self._turns[self.turn]
+        return accepted
 
     def _forget_warps(self) -> None:
         """The template changed: its warps are to be computed anew."""
@@ -557,6 +601,8 @@ class MarkerTracker:
                 if r[0] >= p.min_score and r[7] and not r[3]:
                     accepted = r
                     break
+            if self._turnable and (accepted is None or accepted[0] < TURN_SCORE):
+                accepted = self._try_turns(y, u, v, px, py, margins[-1], accepted)
         if accepted is None:
             coarse = self._whole_frame(y, u, v)
             if coarse is not None:
