@@ -48,7 +48,8 @@ def decisions(record: dict) -> dict:
     """What discovery decided, without the numbers that may differ by rounding."""
     return {"measurement": record["measurement"], "effects": record["effects"], "partial": record.get("partial", []),
             "order": record["order"],
-            "candidates": sorted((c["kind"], c["step"], c["effect"], c["earns_keep"], c.get("note", ""))
+            # a pair's name lists its effects in the order of their held-out gains, which rounding may swap
+            "candidates": sorted((c["kind"], c["step"], "+".join(sorted(c["terms"])), c["earns_keep"])
                                  for c in record["runners_up"])}
 
 

@@ -90,11 +90,13 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
 
     1. Fit the baseline and diagnose it.
     2. **Measurement** (``[discover] measurement``): at every round the measurement terms
-       (theta's zero offset, an angle-scale error) not yet kept are tried first, by the
-       held-out and BIC rules of :mod:`~pendtrack.discovery.selection`. A kept term enters the
+       (theta's zero offset, an angle-scale error) not yet kept are tried first, by
+       interleaved-block cross-validation on the current whole-record fit
+       (:mod:`~pendtrack.discovery.interleaved`: a term that shifts every sample is not judged
+       by an extrapolation that the baseline's dephasing dominates) and the BIC, residual and
+       flag rules of :mod:`~pendtrack.discovery.selection`. A kept term enters the
        observation, stays in every later model and is reported as a measurement finding, never
-       as a cause. (Tried again after each effect: on a record whose baseline dephases, the
-       held-out error is the dephasing's and hides an offset until the physics is better.)
+       as a cause. (Tried again after each effect: a better physics leaves a cleaner residual.)
     3. **Effects**: when no measurement term earns its keep, forward selection over the
        catalogue, one effect per round. When no single
        effect earns its keep but the current model's residual still has structure
@@ -113,7 +115,9 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
        term before an effect, an effect before a measurement term) is judged again in the
        final model (the model without it against the model with it, same rules) and dropped if
        it no longer earns its keep.
-    5. **What stays unexplained**: the final model's diagnostics still off.
+    5. **What stays unexplained**: the final model's diagnostics still off. While any is,
+       or the final fit carries a flag the baseline's does not, no cause is named: the
+       effects kept go to ``partial`` (they improve the fit without explaining the record).
 
     Parameters
     ----------

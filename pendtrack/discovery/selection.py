@@ -17,7 +17,7 @@ Candidates of one step are independent, so they run in parallel worker processes
 
 Decision thresholds
 -------------------
-An effect is kept only if both hold:
+An effect is kept only if all hold:
 
 ``delta_bic < delta_bic_max`` (-10)
     BIC approximates ``-2 ln`` of the Bayes factor, so -10 means odds above e^5 ~ 150:1 for
@@ -44,7 +44,27 @@ An effect is kept only if both hold:
     below 1 % of the held-out RMS changes no physical conclusion; a real missing effect of
     the size that matters (a baseline residual >= 1.2 x the noise) gains far more.
 
-Among the candidates that pass both, the one with the lowest BIC is kept; the others are the
+The whole-record residual RMS goes down
+    An effect is kept only if it lowers the whole-record residual of the angle: the cost
+    (Xi^2 weighs the angular velocity too) can fall while the angle's residual rises, and a
+    term that makes the record's angle worse explains nothing of it.
+
+The candidate's whole-record fit carries no flag of its own (:func:`own_flags`)
+    ``FitResult.flags`` (:func:`pendtrack.fitting.result.plausibility_flags`): a parameter of
+    the new term at an optimiser bound or not determined by the data, or a flag the term
+    brings onto the others (memory with ``beta`` and ``p_f`` near 1 flags ``Omega0``: the term
+    is an added mass). A flagged fit's values are not measurements, so the term is not named.
+
+A **measurement term** is judged by interleaved-block cross-validation instead of the
+held-out extrapolation (:mod:`pendtrack.discovery.interleaved`), by the same z, gain and the
+other rules. Every decision carries its margins (``z - 3``, ``-10 - dBIC``, ...) and its
+stability over block-bootstrap records (:mod:`pendtrack.discovery.stability`).
+
+The whole-record fit of a candidate starts from its training fit and from the current
+model's whole-record fit with the new terms at their training values (``FitTask.full_base``):
+its minimum then does not hang on how one training fit extrapolated.
+
+Among the candidates that pass all rules, the one with the lowest BIC is kept; the others are the
 step's runners-up. The held-out test guards against terms that only fit; it is a poor
 *ranker*: the held-out error of the true model is dominated by how its training-part
 parameter errors extrapolate, and a more flexible wrong term (memory with beta ~ 1 mimics
