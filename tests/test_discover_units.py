@@ -13,7 +13,7 @@ from pendtrack.discovery.cycles import cycle_bounds, cycle_fit
 from pendtrack.discovery.hysteresis import loop_areas
 from pendtrack.discovery.inputs import read_angle_series
 from pendtrack.discovery.residuals import effective_n, noise_sigma, order_spectrum, runs_test, whiteness
-from pendtrack.discovery.selection import heldout_test
+from pendtrack.discovery.residuals import heldout_test
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.kinematics import delta_alpha, turning_points
 from pendtrack.tables import TableSpec
@@ -413,7 +413,7 @@ def test_stability_is_one_far_from_the_thresholds_and_borderline_near_them():
     def stab(shift: float) -> tuple[float, bool]:
         data = theta + shift
         b = np.full(n, shift)
-        from pendtrack.discovery.selection import heldout_test
+        from pendtrack.discovery.residuals import heldout_test
 
         gain, z = heldout_test(data, a, b)
         ms_a, ms_b = np.mean(data**2), np.mean((data - b) ** 2)

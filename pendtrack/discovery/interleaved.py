@@ -17,7 +17,7 @@ record, predicts the other half:
   observation to first order (``theta_off``: a constant; ``k_scale``: ``theta^3``), is
   estimated by least squares on the residual of one fold and predicts the other;
 * the pooled out-of-fold predictions are judged by the same gain and z as the held-out test
-  (:func:`pendtrack.discovery.selection.heldout_test`, the autocorrelation-corrected standard
+  (:func:`pendtrack.discovery.residuals.heldout_test`, the autocorrelation-corrected standard
   error) against the current model.
 
 A record without the artefact gives a term estimated from noise (and from structure the
@@ -30,6 +30,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from pendtrack.discovery.residuals import heldout_test
 
 N_BLOCKS = 10  # 5 blocks per fold: each spans the record; a 60-s record's blocks hold ~5 oscillations
 
@@ -44,7 +46,7 @@ class FoldTest:
     gain : float
         RMS of the current model's residual minus that of the out-of-fold prediction [rad].
     z : float
-        Significance of the mean-square gain (:func:`~pendtrack.discovery.selection.heldout_test`) [1].
+        Significance of the mean-square gain (:func:`~pendtrack.discovery.residuals.heldout_test`) [1].
     rms_before, rms_after : float
         Residual RMS of the current model and of the out-of-fold prediction [rad].
     estimates : tuple of float
@@ -102,8 +104,6 @@ def interleaved_test(theta: np.ndarray, trajectory: np.ndarray, term: str, *, n_
     FoldTest or None
         None for a term without a first-order column, or a trajectory that is not finite.
     """
-    from pendtrack.discovery.selection import heldout_test
-
     x = column(term, trajectory)
     if x is None or not np.all(np.isfinite(trajectory)):
         return None

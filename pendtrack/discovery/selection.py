@@ -88,7 +88,7 @@ import numpy as np
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.interleaved import FoldTest
-from pendtrack.discovery.residuals import effective_n
+from pendtrack.discovery.residuals import heldout_test
 from pendtrack.discovery.result import Candidate, FitSummary
 from pendtrack.parallel import process_pool
 
@@ -282,39 +282,6 @@ def fit_pair(task: FitTask) -> FitPair:
     """:func:`fit_train` then :func:`fit_full` (the baseline, and the synthetic-run check)."""
     pair = fit_train(task)
     return fit_full(task, pair) if not pair.error else pair
-
-
-def heldout_test(theta: np.ndarray, pred_a: np.ndarray, pred_b: np.ndarray) -> tuple[float, float]:
-    """Held-out RMS gain of prediction ``b`` over ``a`` and its z against noise (module docstring).
-
-    Parameters
-    ----------
-    theta : ndarray
-        Held-out data [rad].
-    pred_a, pred_b : ndarray
-        Current and candidate predictions at the same samples [rad].
-
-    Returns
-    -------
-    gain : float
-        ``rms(theta - a) - rms(theta - b)`` [rad].
-    z : float
-        Significance of the mean-square gain [1].
-    """
-    if not (np.all(np.isfinite(pred_a)) and np.all(np.isfinite(pred_b))):
-        return (-math.inf if not np.all(np.isfinite(pred_b)) else math.inf), (
-            -math.inf if not np.all(np.isfinite(pred_b)) else math.inf)
-    e_a = theta - pred_a
-    e_b = theta - pred_b
-    ms_a = float(np.mean(e_a * e_a))
-    ms_b = float(np.mean(e_b * e_b))
-    gain = math.sqrt(ms_a) - math.sqrt(ms_b)
-    delta = pred_b - pred_a
-    md2 = float(np.mean(delta * delta))
-    if md2 <= 0:
-        return gain, 0.0
-    sd = 2.0 * math.sqrt(ms_b * md2 / effective_n(e_b))
-    return gain, (ms_a - ms_b) / sd
 
 
 def run_tasks(fn: Callable[..., FitPair], args: Sequence[tuple], *, on_done: Callable[[int], None] | None = None,

@@ -8,7 +8,7 @@ held at their fits, and their residuals are resampled together, by circular bloc
 as the residual's correlation time (``n / n_eff``, :func:`~pendtrack.discovery.residuals.effective_n`)
 so that a resampled record keeps the structure of the measured one. On each resample:
 
-* the test gain and z (held-out or interleaved, :func:`~pendtrack.discovery.selection.heldout_test`)
+* the test gain and z (held-out or interleaved, :func:`~pendtrack.discovery.residuals.heldout_test`)
   from the resampled test samples (``n_eff`` as measured);
 * ``Delta BIC`` shifted by what the resampled whole-record residuals change in
   ``n ln(Xi^2)``: ``dBIC* = dBIC + n (ln(ms_b*/ms_a*) - ln(ms_b/ms_a))`` with ``ms`` the mean
