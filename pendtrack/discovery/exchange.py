@@ -26,8 +26,8 @@ from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.interleaved import interleaved_test
 from pendtrack.discovery.result import Candidate
 from pendtrack.discovery.selection import (
-    FitPair, FitTask, fit_full, fit_pair, fit_train, full_start, judge, judge_heldout, passes_heldout, run_tasks,
-    warm_start,
+    FitPair, FitTask, fit_full, fit_pair, fit_train, full_start, judge, judge_heldout, passes_heldout, rule_margins,
+    run_tasks, warm_start,
 )
 from pendtrack.discovery.starts import scaled_starts
 
@@ -134,10 +134,8 @@ def _untested(term: str, ft: Any, current: FitPair, data: AnalysisData, *, step:
     stab = decision_stability(kept=False, test=(data.theta, current.trajectory, ft.prediction),
                               test_rms_ref=ft.rms_before, whole=None, delta_bic=math.nan, n_bic=0,
                               rules=Rules(dc.heldout_z_min, dc.heldout_min_gain, dc.delta_bic_max), seed=seed)
-    share = ft.gain / ft.rms_before if ft.rms_before > 0 else math.nan
-    margins = {"z": {"value": ft.z, "threshold": dc.heldout_z_min, "margin": ft.z - dc.heldout_z_min},
-               "gain_share": {"value": share, "threshold": dc.heldout_min_gain,
-                              "margin": share - dc.heldout_min_gain}}
+    margins = rule_margins(ft.z, ft.gain, ft.rms_before, math.nan, heldout_z_min=dc.heldout_z_min,
+                           min_gain=dc.heldout_min_gain, delta_bic_max=dc.delta_bic_max, rms_change=math.nan)
     return Candidate(term, step, 0.0, None, None, ft.rms_after, ft.gain, ft.z, math.nan, False, False,
                      terms=(term,), kind="measurement", test="interleaved", test_rms_before=ft.rms_before,
                      margins=margins, stability=stab)

@@ -247,7 +247,11 @@ def write_markdown(result: DiscoveryResult) -> str:
         what = ("measurement" if st.get("kind") == "measurement"
                 else "effect" if term in r["effects"] else "improves the fit")
         chain.append(f"{_mrad(st['rms_after'])} mrad with {' + '.join(f'`{x}`' for x in st['terms'])} ({what})")
+    # a term kept in between and dropped by the final check was in the models of the later steps
+    dropped = [c["effect"] for c in r["runners_up"] if c["step"] == 0 and "dropped at the end" in c["reason"]]
     lines.append("Residual RMS, term by term in the order kept: " + " -> ".join(chain)
+                 + (f"; without {', '.join(f'`{x}`' for x in dropped)} (kept in between, dropped by the final "
+                    "check: it no longer earned its keep)" if dropped else "")
                  + f"; final `{fm['model']}`: {_mrad(fm['rms'])} mrad, {_f(final_d['rms_over_noise'], '.2f')} times "
                  f"the noise of {_mrad(final_d['sigma'])} mrad.")
     if r.get("unexplained"):

@@ -342,9 +342,9 @@ def own_flags(pair: FitPair, current: FitPair, terms: Sequence[str]) -> dict[str
     return {k: v for k, v in pair.full.flags.items() if k in mine or k not in before}
 
 
-def _margins(z: float, gain: float, rms_ref: float, dbic: float, *, heldout_z_min: float, min_gain: float,
+def rule_margins(z: float, gain: float, rms_ref: float, dbic: float, *, heldout_z_min: float, min_gain: float,
              delta_bic_max: float, rms_change: float) -> dict[str, dict[str, float]]:
-    """Each rule's value, threshold and margin (> 0: passes)."""
+    """Each rule's value, threshold and margin (> 0: passes); NaN for a rule not reached."""
     share = gain / rms_ref if rms_ref > 0 and math.isfinite(rms_ref) else math.nan
     return {"z": {"value": z, "threshold": heldout_z_min, "margin": z - heldout_z_min},
             "gain_share": {"value": share, "threshold": min_gain, "margin": share - min_gain},
@@ -391,7 +391,7 @@ def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, s
                      passes_bic=bool(dbic < delta_bic_max), passes_heldout=passes_h, terms=terms, kind=kind,
                      flags=flags, lowers_rms=lowers, test=which,
                      test_rms_before=rms_ref if test is not None else math.nan,
-                     margins=_margins(z, gain, rms_ref, dbic, heldout_z_min=heldout_z_min, min_gain=min_gain,
+                     margins=rule_margins(z, gain, rms_ref, dbic, heldout_z_min=heldout_z_min, min_gain=min_gain,
                                       delta_bic_max=delta_bic_max, rms_change=rms_change))
     whole = (data.theta, current.trajectory, pair.trajectory) if pair.full is not None else None
     stab = decision_stability(kept=cand.earns_keep, test=samples, test_rms_ref=rms_ref, whole=whole,
