@@ -152,6 +152,11 @@ def _check_measurement(outcomes: list[dict], bar: float = 0.9) -> None:
 # 24-s training fit splits Coulomb and viscous damping wrongly (C0 0.018 vs 0.008; its training Xi^2 is
 # below the truth's), extrapolates to 7.0 mrad held-out (the noise is 3.5) and misses the z > 3 gate
 # (2.8). 9 cases (each effect three times): with 3, one miss already reads 67 %; the bar is a rate.
+# 2026-11-25 (a flagged fit is not kept, #26): 7 of 9. Seed 835980378 keeps nothing (memory's fit is flagged,
+# added mass misses the z gate as before); memory seed 1369428722 (beta 0.655, p_f 1.06) is fitted at
+# beta = 0.45 +- 0.61, p_f = 1.26 +- 0.54, which FitResult.flags marks as an added mass (both within 2 standard
+# errors of 1) although beta is undetermined rather than at 1, so power drag is kept instead (partial: the
+# dephasing stays unexplained, no cause named). The bar is not met until that flag asks beta to be measured at 1.
 @pytest.mark.slow  # 9 cases of 50-110 s: the default suite's 15 minutes cannot hold them
 def test_single_effect_at_30fps():
     seeds = _seeds(11, 5)[:3] + _seeds(14, 6)
