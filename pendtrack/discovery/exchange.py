@@ -44,31 +44,24 @@ class Context:
 
     def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
                  starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
-                 seed: int, hold: Sequence[bool] | None = None,
+                 seed: int,
                  initials: Sequence[dict[str, float]] | None = None) -> tuple[list[Candidate], list[FitPair]]:
         """Fit ``baseline + kept + option`` for every option and judge it against ``current``.
 
         Every option is fitted on the training part and predicts the held-out part; only one
-        that passes the held-out test earns a whole-record fit (for BIC). ``hold[i]``: option i's
-        training fit holds the physics at the current model's training fit (it fits the new
-        terms' parameters and the initial state only). ``initials[i]``: option i's warm start
+        that passes the held-out test earns a whole-record fit (for BIC; started at its training
+        fit and at the current whole-record fit). ``initials[i]``: option i's warm start
         (default: the current model's training fit).
-        The whole-record fit, for BIC, frees everything.
         """
         dc = self.config.discover
         data = self.data
         warm = warm_start(current)
         common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
-        from pendtrack.models import MEASUREMENT_TERMS
-
-        meas_params = {p for name in MEASUREMENT_TERMS for p in MEASUREMENT_TERMS[name].params}
-        physics = {k: v for k, v in warm.items() if k not in ("theta0", "omega0") and k not in meas_params}
-        hold = list(hold) if hold is not None else [False] * len(options)
         initials = list(initials) if initials is not None else [warm] * len(options)
         base = full_start(current)
         tasks = [FitTask(data, self.baseline, (*kept, *opt), ini, dc.n_starts, seed, extra_starts=tuple(st),
-                         fixed=physics if h else None, full_base=base, **common)
-                 for opt, st, h, ini in zip(options, starts, hold, initials)]
+                         full_base=base, **common)
+                 for opt, st, ini in zip(options, starts, initials)]
         pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
         again = [i for i, p in enumerate(pairs)
                  if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,

@@ -102,8 +102,8 @@ class Candidate:
     step : int
         Selection step (1 = first extension of the baseline).
     signature_score : float
-        Its signature score on the current model's diagnosis (the order it was tried in); for a
-        measurement term 1 when its training fit held the physics at the current fit, else 0.
+        Its signature score on the current model's diagnosis (the order it was tried in); 0 for a
+        measurement term.
     train, full : FitSummary
         Fit on the training part and on the whole record.
     heldout_rms : float
