@@ -236,6 +236,7 @@ class DiscoverConfig:
     delta_bic_max: float = -10.0  # keep an effect only if BIC drops below this (Kass-Raftery "very strong")
     heldout_z_min: float = 3.0  # ... and its held-out gain exceeds noise by this many standard deviations
     heldout_min_gain: float = 0.01  # ... and is at least this share of the held-out RMS [1]
+    cv_blocks: int = 10  # measurement terms: interleaved blocks (even ones predict the odd ones and back) [1]
     max_effects: int = 3  # at most this many effects are added
     measurement: tuple[str, ...] = ("offset", "angle_scale")  # measurement terms tried before any effect; () = none
     max_combination: int = 2  # effects tried together when no single one earns its keep (1 = singles only)
@@ -393,6 +394,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "discover.train_fraction": (_within(0, 1, lo_open=True, hi_open=True),),
     "discover.heldout_z_min": (_ge(0),),
     "discover.heldout_min_gain": (_ge(0),),
+    "discover.cv_blocks": (_ge(2),),
     "discover.max_effects": (_ge(0),),
     "discover.measurement": (_NAMES,),
     "discover.max_combination": (_within(1, 3),),

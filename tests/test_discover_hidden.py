@@ -89,13 +89,14 @@ def _plan(n_per_kind: int, salt: int) -> list[tuple[int, str | None]]:
 
 
 def _run_case(seed: int, truth: str | tuple[str, ...] | None, *, measurement: str | None = None,
-              max_effects: int = 1, **draw: object) -> dict:
-    run = draw_run(seed, truth, measurement=measurement, **draw)  # type: ignore[arg-type]
+              max_effects: int = 1, outside: str | None = None, **draw: object) -> dict:
+    run = draw_run(seed, truth, measurement=measurement, outside=outside, **draw)  # type: ignore[arg-type]
     series = AngleSeries(run.t, run.theta, source=f"synthetic seed {seed}", kind="table")  # type: ignore[arg-type]
     # One step decides "named first" and a control's "nothing": the tests spare the (equally long)
     # later steps; a pair needs two.
     res = discover(series, config=Config().replace("discover", max_effects=max_effects))
     return {"seed": seed, "truth": list(run.effects), "measurement_truth": measurement, "found": list(res.effects),
+            "partial": list(res.partial), "outside": outside,
             "measurement": list(res.measurement), "unexplained": list(res.unexplained),
             "equivalents": [e["effects"] for e in res.equivalents],
             "params": {k: round(v, 5) for k, v in run.params.items()}, "excess": run.excess,
@@ -151,6 +152,11 @@ def _check_measurement(outcomes: list[dict], bar: float = 0.9) -> None:
 # 24-s training fit splits Coulomb and viscous damping wrongly (C0 0.018 vs 0.008; its training Xi^2 is
 # below the truth's), extrapolates to 7.0 mrad held-out (the noise is 3.5) and misses the z > 3 gate
 # (2.8). 9 cases (each effect three times): with 3, one miss already reads 67 %; the bar is a rate.
+# 2026-11-25 (a flagged fit is not kept, #26): 7 of 9. Seed 835980378 keeps nothing (memory's fit is flagged,
+# added mass misses the z gate as before); memory seed 1369428722 (beta 0.655, p_f 1.06) is fitted at
+# beta = 0.45 +- 0.61, p_f = 1.26 +- 0.54, which FitResult.flags marks as an added mass (both within 2 standard
+# errors of 1) although beta is undetermined rather than at 1, so power drag is kept instead (partial: the
+# dephasing stays unexplained, no cause named). The bar is not met until that flag asks beta to be measured at 1.
 @pytest.mark.slow  # 9 cases of 50-110 s: the default suite's 15 minutes cannot hold them
 def test_single_effect_at_30fps():
     seeds = _seeds(11, 5)[:3] + _seeds(14, 6)
@@ -175,6 +181,19 @@ def test_controls_at_30fps():
 def test_pairs_of_effects_at_30fps():
     # every pair of hidden effects once: 3 cases (two steps each)
     _check_pairs([_run_case(s, pair, max_effects=2, **PAIR_30FPS) for s, pair in zip(_seeds(12, 3), HIDDEN_PAIRS)])
+
+
+# Physics outside the catalogue (#29): the natural frequency drifts by -0.24 to -0.48 % over 60 s, as from a
+# string that stretches. No catalogue effect is its cause: discovery may keep terms that lower the residual
+# (reported as ``partial``: they improve the fit), but names no cause.
+DRIFT_30FPS = {"rate_hz": 30.0, "duration": (60.0, 60.0), "noise": (0.003, 0.005)}
+
+
+@pytest.mark.slow  # 2 records of 60 s: minutes
+def test_drifting_omega0_names_no_cause():
+    outcomes = [_run_case(s, None, outside="drifting_omega0", max_effects=2, **DRIFT_30FPS) for s in _seeds(15, 2)]
+    lines = _report(outcomes)
+    assert not any(o["found"] for o in outcomes), f"a cause named for a drifting Omega0 (base seed {BASE_SEED}):\n{lines}"
 
 
 def test_measurement_artefacts_at_30fps():

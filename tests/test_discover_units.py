@@ -13,7 +13,7 @@ from pendtrack.discovery.cycles import cycle_bounds, cycle_fit
 from pendtrack.discovery.hysteresis import loop_areas
 from pendtrack.discovery.inputs import read_angle_series
 from pendtrack.discovery.residuals import effective_n, noise_sigma, order_spectrum, runs_test, whiteness
-from pendtrack.discovery.selection import heldout_test
+from pendtrack.discovery.residuals import heldout_test
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.kinematics import delta_alpha, turning_points
 from pendtrack.tables import TableSpec
@@ -359,3 +359,88 @@ def test_low_rate_records_keep_the_filter_and_memory_durations(rate_hz):
                    memory_s=cfg.models.memory_s)
     step = d.dt / max(sim.substeps, 1)  # the simulation's internal step (sub-steps on a coarse grid)
     assert abs(sim.memory_steps * step - cfg.models.memory_s) <= 0.5 * step
+
+
+# --- measurement terms by interleaved folds; margins and stability ---------------------------
+
+def _dephased(seconds: float = 60.0, seed: int = 0, offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A record (model + a phase error growing with time, as a baseline that dephases, + noise + offset)
+    and the model's trajectory."""
+    t, model, _ = _oscillation(seconds)
+    amp = 0.5 * np.exp(-t / 80)
+    data = amp * np.sin(W0 * t + 0.02 * t / seconds) + np.random.default_rng(seed).normal(0, 0.002, t.size)
+    return data + offset, model
+
+
+def test_interleaved_test_finds_an_offset_that_dephasing_hides_from_the_held_out_part():
+    from pendtrack.discovery.interleaved import interleaved_test
+
+    theta, model = _dephased(offset=0.004)
+    ft = interleaved_test(theta, model, "offset")
+    assert ft is not None and ft.z > 3 and ft.gain > 0
+    # both folds see the same offset, to within the noise of half the record (2 mrad / sqrt(1800) ~ 0.05 mrad,
+    # times the dephasing residual's correlation: 0.5 mrad is generous)
+    assert ft.estimates[0] == pytest.approx(0.004, abs=5e-4) and ft.estimates[1] == pytest.approx(0.004, abs=5e-4)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_interleaved_test_keeps_no_offset_on_a_record_without_one(seed):
+    from pendtrack.discovery.interleaved import interleaved_test
+
+    theta, model = _dephased(seed=seed)
+    for term in ("offset", "angle_scale"):
+        ft = interleaved_test(theta, model, term)
+        assert ft is not None and ft.z < 3, (term, ft.z)
+
+
+def test_folds_alternate_blocks_that_span_the_record():
+    from pendtrack.discovery.interleaved import folds
+
+    f = folds(1000, 10)
+    assert f.sum() == 500 and f[0] == 0 and f[99] == 0 and f[100] == 1 and f[-1] == 1
+    assert np.count_nonzero(np.diff(f)) == 9
+
+
+def test_stability_is_one_far_from_the_thresholds_and_borderline_near_them():
+    from pendtrack.discovery.stability import Rules, decision_stability
+
+    rng = np.random.default_rng(3)
+    n = 3000
+    theta = rng.normal(0, 0.002, n)
+    a = np.zeros(n)
+    rules = Rules(heldout_z_min=3.0, min_gain=0.0, delta_bic_max=-10.0)
+
+    def stab(shift: float) -> tuple[float, bool]:
+        data = theta + shift
+        b = np.full(n, shift)
+        from pendtrack.discovery.residuals import heldout_test
+
+        gain, z = heldout_test(data, a, b)
+        ms_a, ms_b = np.mean(data**2), np.mean((data - b) ** 2)
+        dbic = 2 * n * math.log(ms_b / ms_a) + math.log(2 * n)
+        kept = bool(z > 3 and gain > 0 and dbic < -10)
+        return decision_stability(kept=kept, test=(data, a, b), test_rms_ref=float(np.sqrt(ms_a)),
+                                  whole=(data, a, b), delta_bic=dbic, n_bic=2 * n, rules=rules, seed=1), kept
+
+    far, kept = stab(0.002)  # a shift of one noise sigma over 3000 samples: z ~ 40
+    assert kept and far == 1.0
+    # a shift of 4 sigma / sqrt(n) puts z at the threshold (2.96 on this noise), where resampled records
+    # (z spread ~1) decide either way: about half alike, well below 80 %
+    near, _ = stab(0.002 * 4.0 / math.sqrt(n))
+    assert 0.2 < near < 0.8
+    # a flagged fit decides alike on every resample
+    assert decision_stability(kept=False, test=(theta, a, a), test_rms_ref=0.002, whole=None, delta_bic=math.nan,
+                              n_bic=0, rules=rules, fixed=True) == 1.0
+
+
+def test_a_candidate_whose_fit_is_flagged_or_raises_the_residual_is_not_kept():
+    from pendtrack.discovery.result import Candidate
+
+    ok = Candidate("memory", 1, 0.0, None, None, 0.001, 0.002, 10.0, -50.0, True, True)
+    assert ok.earns_keep
+    flagged = Candidate("memory", 1, 0.0, None, None, 0.001, 0.002, 10.0, -50.0, True, True,
+                        flags={"Omega0": "the memory term is an added mass"})
+    assert not flagged.earns_keep and "flagged" in flagged.reason()
+    worse = Candidate("time_varying_damping", 1, 0.0, None, None, 0.001, 0.002, 10.0, -50.0, True, True,
+                      lowers_rms=False)
+    assert not worse.earns_keep and "does not go down" in worse.reason()

@@ -39,6 +39,8 @@ def discover(source: str, baseline: str | None, effects: str | None, columns: tu
     facts = out.facts
     state = "up to date" if out.skipped else "done"
     added = ", ".join(facts.get("effects") or []) or "none"
-    click.echo(f"discover   {state:<10} baseline {facts.get('baseline')}; effects added: {added}")
+    partial = ", ".join(facts.get("partial") or [])
+    click.echo(f"discover   {state:<10} baseline {facts.get('baseline')}; causes named: {added}"
+               + (f"; improving the fit (not causes): {partial}" if partial else ""))
     for p in out.paths:
         click.echo(f"  {p}")

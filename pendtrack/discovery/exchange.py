@@ -19,11 +19,15 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
+
 from pendtrack.config import Config
 from pendtrack.discovery.data import AnalysisData
+from pendtrack.discovery.interleaved import interleaved_test
 from pendtrack.discovery.result import Candidate
 from pendtrack.discovery.selection import (
-    FitPair, FitTask, fit_full, fit_pair, fit_train, judge, judge_heldout, passes_heldout, run_tasks, warm_start,
+    FitPair, FitTask, fit_full, fit_pair, fit_train, full_start, judge, judge_heldout, passes_heldout, rule_margins,
+    run_tasks, warm_start,
 )
 from pendtrack.discovery.starts import scaled_starts
 
@@ -40,30 +44,24 @@ class Context:
 
     def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
                  starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
-                 seed: int, hold: Sequence[bool] | None = None,
+                 seed: int,
                  initials: Sequence[dict[str, float]] | None = None) -> tuple[list[Candidate], list[FitPair]]:
         """Fit ``baseline + kept + option`` for every option and judge it against ``current``.
 
         Every option is fitted on the training part and predicts the held-out part; only one
-        that passes the held-out test earns a whole-record fit (for BIC). ``hold[i]``: option i's
-        training fit holds the physics at the current model's training fit (it fits the new
-        terms' parameters and the initial state only). ``initials[i]``: option i's warm start
+        that passes the held-out test earns a whole-record fit (for BIC; started at its training
+        fit and at the current whole-record fit). ``initials[i]``: option i's warm start
         (default: the current model's training fit).
-        The whole-record fit, for BIC, frees everything.
         """
         dc = self.config.discover
         data = self.data
         warm = warm_start(current)
         common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
-        from pendtrack.models import MEASUREMENT_TERMS
-
-        meas_params = {p for name in MEASUREMENT_TERMS for p in MEASUREMENT_TERMS[name].params}
-        physics = {k: v for k, v in warm.items() if k not in ("theta0", "omega0") and k not in meas_params}
-        hold = list(hold) if hold is not None else [False] * len(options)
         initials = list(initials) if initials is not None else [warm] * len(options)
+        base = full_start(current)
         tasks = [FitTask(data, self.baseline, (*kept, *opt), ini, dc.n_starts, seed, extra_starts=tuple(st),
-                         fixed=physics if h else None, **common)
-                 for opt, st, h, ini in zip(options, starts, hold, initials)]
+                         full_base=base, **common)
+                 for opt, st, ini in zip(options, starts, initials)]
         pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
         again = [i for i, p in enumerate(pairs)
                  if passes_heldout(*judge_heldout(p, current, data), dc.heldout_z_min,
@@ -73,9 +71,67 @@ class Context:
             pairs[i] = p
         judged = [judge(p, current, data, effect="+".join(opt), terms=tuple(opt), kind=kind, step=step, score=s,
                         delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min,
-                        min_gain=dc.heldout_min_gain)
+                        min_gain=dc.heldout_min_gain, seed=seed)
                   for p, opt, s in zip(pairs, options, scores)]
         return judged, pairs
+
+    def evaluate_measurement(self, current: FitPair, kept: Sequence[str], terms: Sequence[str],
+                             starts: Sequence[Sequence[dict[str, float]]], *, step: int,
+                             seed: int) -> tuple[list[Candidate], list[FitPair]]:
+        """Judge measurement terms by interleaved-block cross-validation, not by extrapolation.
+
+        Each term is tested on the current model's whole-record fit
+        (:func:`~pendtrack.discovery.interleaved.interleaved_test`: physics held, the term
+        estimated on one fold, predicting the other). Only a term that passes is fitted: on the
+        training part (from ``starts``: it is the prediction the later effect steps are judged
+        against) and on the whole record (for BIC and the residual; also started at the current
+        whole-record fit). The same margins, BIC and residual rules as for an effect.
+        """
+        dc = self.config.discover
+        data = self.data
+        assert current.full is not None
+        tests = [interleaved_test(data.theta, current.trajectory, term, n_blocks=dc.cv_blocks) for term in terms]
+        nan = np.full(data.t.size, np.nan)
+        pairs = [FitPair((*kept, term), None, None, nan, math.inf, nan, nan, error="no interleaved test")
+                 for term in terms]
+        go = [i for i, ft in enumerate(tests) if ft is not None and passes_heldout(
+            ft.gain, ft.z, dc.heldout_z_min, min_gain=dc.heldout_min_gain, heldout_rms=ft.rms_before)]
+        common = dict(cost=self.config.fit.cost, memory_s=self.config.models.memory_s)
+        warm = warm_start(current)
+        tasks = {i: FitTask(data, self.baseline, (*kept, terms[i]), warm, dc.n_starts, seed,
+                            extra_starts=tuple(starts[i]), full_base=full_start(current), **common) for i in go}
+        done = run_tasks(fit_pair, [(tasks[i],) for i in go], on_done=self.tick, executor=self.executor)
+        for i, p in zip(go, done):
+            pairs[i] = p
+        judged = []
+        for i, (term, ft) in enumerate(zip(terms, tests)):
+            if i in tasks:
+                judged.append(judge(pairs[i], current, data, effect=term, terms=(term,), kind="measurement",
+                                    step=step, score=0.0, delta_bic_max=dc.delta_bic_max,
+                                    heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain, test=ft, seed=seed))
+            else:
+                judged.append(_untested(term, ft, current, data, step=step, seed=seed, config=self.config))
+        return judged, pairs
+
+
+def _untested(term: str, ft: Any, current: FitPair, data: AnalysisData, *, step: int, seed: int,
+              config: Config) -> Candidate:
+    """A measurement term that failed its interleaved test (not fitted): its numbers and stability."""
+    from pendtrack.discovery.stability import Rules, decision_stability
+
+    dc = config.discover
+    if ft is None:
+        return Candidate(term, step, 0.0, None, None, math.inf, -math.inf, -math.inf, math.nan, False, False,
+                         error="no interleaved test for this term", terms=(term,), kind="measurement",
+                         test="interleaved", stability=1.0)
+    stab = decision_stability(kept=False, test=(data.theta, current.trajectory, ft.prediction),
+                              test_rms_ref=ft.rms_before, whole=None, delta_bic=math.nan, n_bic=0,
+                              rules=Rules(dc.heldout_z_min, dc.heldout_min_gain, dc.delta_bic_max), seed=seed)
+    margins = rule_margins(ft.z, ft.gain, ft.rms_before, math.nan, heldout_z_min=dc.heldout_z_min,
+                           min_gain=dc.heldout_min_gain, delta_bic_max=dc.delta_bic_max, rms_change=math.nan)
+    return Candidate(term, step, 0.0, None, None, ft.rms_after, ft.gain, ft.z, math.nan, False, False,
+                     terms=(term,), kind="measurement", test="interleaved", test_rms_before=ft.rms_before,
+                     margins=margins, stability=stab)
 
 
 def without(warm: dict[str, float], term: str) -> dict[str, float]:
@@ -96,15 +152,21 @@ def recheck(ctx: Context, current: FitPair, terms: Sequence[str], term: str, *, 
     """
     dc = ctx.config.discover
     reduced_terms = tuple(t for t in terms if t != term)
+    base = full_start(current)
     task = FitTask(ctx.data, ctx.baseline, reduced_terms, without(warm_start(current), term), dc.n_starts,
-                   dc.seed + 200 + step, cost=ctx.config.fit.cost, memory_s=ctx.config.models.memory_s)
+                   dc.seed + 200 + step, cost=ctx.config.fit.cost, memory_s=ctx.config.models.memory_s,
+                   full_base=without(base, term) if base is not None else None)
     reduced = fit_pair(task)
     ctx.tick(1)
     if reduced.error or reduced.full is None:  # the simpler model cannot be fitted: the term stays
         return Candidate(term, step, 0.0, current.train, current.full, current.heldout_rms, math.inf, math.inf,
-                         -math.inf, True, True, terms=(term,), kind=kind), reduced
+                         -math.inf, True, True, terms=(term,), kind=kind, stability=1.0), reduced
+    # a measurement term is judged as it was kept: interleaved folds on the model without it
+    test = interleaved_test(ctx.data.theta, reduced.trajectory, term, n_blocks=dc.cv_blocks) \
+        if kind == "measurement" else None
     cand = judge(current, reduced, ctx.data, effect=term, terms=(term,), kind=kind, step=step, score=0.0,
-                 delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain)
+                 delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min, min_gain=dc.heldout_min_gain,
+                 test=test, seed=dc.seed + 200 + step)
     return cand, reduced
 
 

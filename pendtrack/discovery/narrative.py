@@ -89,6 +89,47 @@ def _off(evidence: Mapping[str, float]) -> list[str]:
     return off_diagnostics(evidence)
 
 
+def _stability(s: Mapping[str, Any]) -> str:
+    """``same decision on 97 % of resampled records`` (+ ``: borderline``)."""
+    st = s.get("stability")
+    if st is None:
+        return "stability not assessed"
+    return (f"same decision on {100 * float(st):.0f} % of resampled records"
+            + (" (**borderline**: below 80 %)" if s.get("borderline") else ""))
+
+
+def _margins(s: Mapping[str, Any]) -> str:
+    """``z = 31.8 (3 + 28.8), dBIC = -210.4 (-10 - 200.4)``: each rule's value and margin."""
+    m = s.get("margins") or {}
+    out = []
+    z, b = m.get("z"), m.get("delta_bic")
+    if z and z.get("value") is not None:
+        out.append(f"z = {_f(z['value'], '.1f')} (margin {_f(z['margin'], '+.1f')} against {_f(z['threshold'], '.0f')})")
+    if b and b.get("value") is not None:
+        out.append(f"dBIC = {_f(b['value'], '.1f')} (margin {_f(b['margin'], '+.1f')} against "
+                   f"{_f(b['threshold'], '.0f')})")
+    return ", ".join(out) or "no margins"
+
+
+def _margin_cells(s: Mapping[str, Any]) -> tuple[str, str, str]:
+    """Table cells: z and its margin, dBIC and its margin, the stability (``borderline`` below 80 %)."""
+    m = s.get("margins") or {}
+
+    def cell(key: str, value: Any) -> str:
+        mm = m.get(key) or {}
+        if value is None or mm.get("margin") is None:
+            return _f(value, ".1f")
+        return f"{_f(value, '.1f')} ({_f(mm['margin'], '+.1f')})"
+
+    st = s.get("stability")
+    stab = "n/a" if st is None else f"{100 * float(st):.0f} %" + (" borderline" if s.get("borderline") else "")
+    return cell("z", s.get("heldout_z")), cell("delta_bic", s.get("delta_bic")), stab
+
+
+def _test_name(s: Mapping[str, Any]) -> str:
+    return "interleaved cross-validation RMS" if s.get("test") == "interleaved" else "held-out RMS"
+
+
 def _measurement_verdict(r: Mapping[str, Any]) -> list[str]:
     """Sentences on the measurement terms kept: findings about the record, not causes."""
     from pendtrack.discovery.catalogue import MEASUREMENT
@@ -99,13 +140,52 @@ def _measurement_verdict(r: Mapping[str, Any]) -> list[str]:
             a = MEASUREMENT[name]
             params = "; ".join(f"{k} = {_pm(v['value'], v['stderr'])}" for k, v in s["params"].items()
                                if k in a.params)
-            out.append(f"Measurement finding: **{a.title}** (`{name}`, {params}): {a.meaning}. It is a property "
+            lead = "Borderline measurement finding" if s.get("borderline") else "Measurement finding"
+            out.append(f"{lead}: **{a.title}** (`{name}`, {params}): {a.meaning}. It is a property "
                        f"of the record, not of the pendulum's physics; modelling it lowers the residual RMS from "
-                       f"{_mrad(s['rms_before'])} to {_mrad(s['rms_after'])} mrad and the held-out RMS from "
-                       f"{_mrad(s['heldout_rms_before'])} to {_mrad(s['heldout_rms_after'])} mrad "
-                       f"(z = {_f(s['heldout_z'], '.1f')}), dBIC = {_f(s['delta_bic'], '.1f')}; it stays in the "
-                       "observation of every later model and of the final one.")
+                       f"{_mrad(s['rms_before'])} to {_mrad(s['rms_after'])} mrad and the {_test_name(s)} from "
+                       f"{_mrad(s['heldout_rms_before'])} to {_mrad(s['heldout_rms_after'])} mrad; "
+                       f"{_margins(s)}; {_stability(s)}. It stays in the observation of every later model and "
+                       "of the final one.")
     return out
+
+
+def _effects_verdict(r: Mapping[str, Any]) -> list[str]:
+    """The causes named, or the terms that only improve the fit (``partial``), in words that match the numbers."""
+    by_term = {t: s for s in r["steps"] for t in s["terms"]}
+    if r["effects"]:
+        s0 = by_term[r["effects"][0]]
+        named = [CATALOGUE[x] for x in s0["terms"]]
+        together = len(named) > 1
+        what = " together with ".join(f"**{e.title}** (`{e.name}`: {e.physics})" for e in named)
+        lead = "The borderline cause" if s0.get("borderline") else "The cause"
+        lines = [f"{lead}{'s' if together else ''} named {'are' if together else 'is'} {what}"
+                 + (" (neither alone earned its keep; together they did)" if together else "")
+                 + f". Adding {'them' if together else 'it'} lowers the residual RMS from "
+                 f"{_mrad(s0['rms_before'])} to {_mrad(s0['rms_after'])} mrad and the {_test_name(s0)} from "
+                 f"{_mrad(s0['heldout_rms_before'])} to {_mrad(s0['heldout_rms_after'])} mrad; {_margins(s0)}; "
+                 f"{_stability(s0)}."]
+        for s in r["steps"][1:]:
+            lines.append(f"Further effect kept: {' + '.join(f'`{x}`' for x in s['terms'])} "
+                         + ("(borderline) " if s.get("borderline") else "")
+                         + f"lowers the residual RMS from {_mrad(s['rms_before'])} to {_mrad(s['rms_after'])} mrad; "
+                         f"{_margins(s)}; {_stability(s)}.")
+        return lines
+    if not r.get("partial"):
+        return []
+    why = (f"structure remains that no catalogue term removes ({', '.join(r['unexplained'])})" if r.get("unexplained")
+           else "the final fit is flagged (" + "; ".join(f"{k} {v}" for k, v in r["final_model"]["flags"].items())
+           + ")")
+    lines = [f"**No cause is named**: {why}. The effects kept improve the fit without explaining the record:"]
+    for s in r["steps"]:
+        lines.append(f"- {' + '.join(f'`{x}`' for x in s['terms'])} "
+                     + ("(borderline) " if s.get("borderline") else "")
+                     + f"improves the fit: residual RMS {_mrad(s['rms_before'])} -> {_mrad(s['rms_after'])} mrad, "
+                     f"{_test_name(s)} {_mrad(s['heldout_rms_before'])} -> {_mrad(s['heldout_rms_after'])} mrad; "
+                     f"{_margins(s)}; {_stability(s)}"
+                     + ("; its fit is flagged: " + "; ".join(f"{k} {v}" for k, v in s["flags"].items())
+                        if s.get("flags") else "") + ".")
+    return lines
 
 
 def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
@@ -143,31 +223,17 @@ def write_markdown(result: DiscoveryResult) -> str:
     lines.append(f"The `{r['baseline']}` model leaves a residual {_f(base_d['rms_over_noise'], '.2f')} times the "
                  f"noise (RMS {_mrad(r['baseline_fit']['rms'])} mrad), with structure in: {', '.join(off) or 'none'}.")
     lines += _measurement_verdict(r)
+    lines += _effects_verdict(r)
     if r["effects"]:
-        s0 = r["steps"][0]
-        named = [CATALOGUE[x] for x in s0["terms"]]
-        together = len(named) > 1
-        what = " together with ".join(f"**{e.title}** (`{e.name}`: {e.physics})" for e in named)
-        lines.append(f"The cause{'s' if together else ''} named {'are' if together else 'is'} {what}"
-                     + (" (neither alone earned its keep; together they did)" if together else "")
-                     + f". Adding {'them' if together else 'it'} lowers the residual RMS from "
-                     f"{_mrad(s0['rms_before'])} to {_mrad(s0['rms_after'])} mrad and the held-out RMS from "
-                     f"{_mrad(s0['heldout_rms_before'])} to {_mrad(s0['heldout_rms_after'])} mrad "
-                     f"(z = {_f(s0['heldout_z'], '.1f')}), dBIC = {_f(s0['delta_bic'], '.1f')}.")
-        later = [x for s in r["steps"][1:] for x in s["terms"]]
-        if later:
-            lines.append(f"Further effects kept, in order: {', '.join(f'`{x}`' for x in later)}.")
         top = diag.get("signature_top")
-        first = s0["terms"][0]
-        if top and top not in s0["terms"]:
+        first = r["effects"][0]
+        if top and top != first:
             lines.append(f"The signatures pointed first to `{top}`; the held-out test and BIC preferred `{first}`.")
         elif top:
             lines.append("The decision agrees with the signature ranking.")
-    elif off:
+    elif not r.get("partial"):
         lines.append("No effect of the catalogue, alone or in combination, earns its parameters on held-out data "
-                     "and BIC: no physical cause is named.")
-    else:
-        lines.append("No effect is added.")
+                     "and BIC: no physical cause is named." if off else "No effect is added.")
     fm = r["final_model"]
     final_d = diag.get("final") or base_d
     chain = [f"{_mrad(r['baseline_fit']['rms'])} mrad with `{r['baseline']}`"]
@@ -178,24 +244,32 @@ def write_markdown(result: DiscoveryResult) -> str:
         if st is None or id(st) in seen:
             continue
         seen.add(id(st))
-        what = "measurement" if st.get("kind") == "measurement" else "effect"
+        what = ("measurement" if st.get("kind") == "measurement"
+                else "effect" if term in r["effects"] else "improves the fit")
         chain.append(f"{_mrad(st['rms_after'])} mrad with {' + '.join(f'`{x}`' for x in st['terms'])} ({what})")
+    # a term kept in between and dropped by the final check was in the models of the later steps
+    dropped = [c["effect"] for c in r["runners_up"] if c["step"] == 0 and "dropped at the end" in c["reason"]]
     lines.append("Residual RMS, term by term in the order kept: " + " -> ".join(chain)
+                 + (f"; without {', '.join(f'`{x}`' for x in dropped)} (kept in between, dropped by the final "
+                    "check: it no longer earned its keep)" if dropped else "")
                  + f"; final `{fm['model']}`: {_mrad(fm['rms'])} mrad, {_f(final_d['rms_over_noise'], '.2f')} times "
                  f"the noise of {_mrad(final_d['sigma'])} mrad.")
     if r.get("unexplained"):
         lines.append(f"**Not explained by the catalogue:** {', '.join(r['unexplained'])} "
                      f"{'is' if len(r['unexplained']) == 1 else 'are'} still off after the final model. "
-                     "No catalogue term removes this structure; the terms kept are not its cause.")
+                     "No catalogue term removes this structure, so no cause is named: the effects kept improve "
+                     "the fit without explaining it.")
     else:
         lines.append("Nothing stays unexplained: every diagnostic of the final model is within the noise.")
     for eq in r.get("equivalents", []):
-        swapped = [e for e in eq["effects"] if e not in r["effects"]]
-        lost = [e for e in r["effects"] if e not in eq["effects"]]
+        kept = [*r["effects"], *r.get("partial", [])]
+        swapped = [e for e in eq["effects"] if e not in kept]
+        lost = [e for e in kept if e not in eq["effects"]]
         lines.append(f"**Not told apart:** `{eq['model']}` fits the record about as well (BIC "
                      f"{_f(eq['delta_bic'], '+.1f')}, less than the {_f(-r['thresholds']['delta_bic_max'], '.0f')} "
                      f"an effect needs to be kept): {' + '.join(f'`{e}`' for e in swapped)} in the place of "
-                     f"{' + '.join(f'`{e}`' for e in lost)} is as likely a cause.")
+                     f"{' + '.join(f'`{e}`' for e in lost)} fits as well"
+                     + (" and is as likely a cause." if r["effects"] else "."))
     if ev.get("offset", 0.0) > NOISE_Z and "offset" not in r.get("measurement", []):
         lines.append(f"The baseline's residual has a persistent mean level of "
                      f"{_mrad(_mean_offset(base_d['cycles']))} mrad: theta's zero is probably not the rest position "
@@ -222,21 +296,22 @@ def write_markdown(result: DiscoveryResult) -> str:
             label = f"`{s['effect']}`" + (" (measurement)" if s.get("kind") == "measurement" else "")
             rows.append((label, params, f"{_mrad(s['rms_before'])} -> {_mrad(s['rms_after'])}",
                          f"{_f(s['xi2_before'])} -> {_f(s['xi2_after'])}",
-                         f"{_mrad(s['heldout_rms_before'])} -> {_mrad(s['heldout_rms_after'])} "
-                         f"(z = {_f(s['heldout_z'], '.1f')})", _f(s["delta_bic"], ".1f")))
-        lines += _table(("term", "new parameters (± stderr)", "RMS [mrad]", "Xi^2", "held-out RMS [mrad]", "dBIC"),
-                        rows)
+                         f"{_mrad(s['heldout_rms_before'])} -> {_mrad(s['heldout_rms_after'])}"
+                         + (" (interleaved)" if s.get("test") == "interleaved" else ""),
+                         *_margin_cells(s)))
+        lines += _table(("term", "new parameters (± stderr)", "RMS [mrad]", "Xi^2", "test RMS [mrad]",
+                         "z (margin vs 3)", "dBIC (margin vs -10)", "stability"), rows)
     else:
         lines.append("No effect was added.")
     lines.append("")
     if r["runners_up"]:
         lines += ["### Runners-up", ""]
-        rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]),
-                 f"`{c['effect']}`" + (" (physics held)" if c.get("kind") == "measurement"
-                                       and c.get("signature_score") == 1.0 else ""),
-                 _mrad(c["heldout_rms"]), _f(c["heldout_z"], ".1f"), _f(c["delta_bic"], ".1f"), c["reason"])
+        rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]), f"`{c['effect']}`",
+                 _mrad(c["heldout_rms"]) + (" (interleaved)" if c.get("test") == "interleaved" else ""),
+                 *_margin_cells(c), c["reason"])
                 for c in r["runners_up"]]
-        lines += _table(("step", "term(s)", "held-out RMS [mrad]", "z", "dBIC", "why not kept"), rows)
+        lines += _table(("step", "term(s)", "test RMS [mrad]", "z (margin vs 3)", "dBIC (margin vs -10)",
+                         "stability", "why not kept"), rows)
         lines.append("")
 
     fm = r["final_model"]
@@ -259,12 +334,22 @@ def write_markdown(result: DiscoveryResult) -> str:
     lines += ["## How the decision was made", "",
               "Forward selection: the measurement terms (theta's zero, its scale) first, then the physical "
               "effects one at a time, and pairs of effects when no single one earns its keep but the residual "
-              "still has structure. Each candidate is fitted by output error on the first "
-              f"{_f(100 * th['train_fraction'], '.0f')} % of the record and simulated over the whole record; "
-              "it is kept "
-              "only if its held-out RMS gain is significant against noise "
+              "still has structure. An effect is fitted by output error on the first "
+              f"{_f(100 * th['train_fraction'], '.0f')} % of the record and simulated over the whole record "
+              "(its held-out RMS); a measurement term, which shifts every sample, is judged by interleaved "
+              f"cross-validation instead: the record cut into {th.get('cv_blocks', 10)} blocks, the term estimated "
+              "on the even ones predicts the odd ones and back, the physics held at the current whole-record fit. "
+              "A term is kept only if that gain is significant against noise "
               f"(z > {_f(th['heldout_z_min'], '.1f')}) and at "
-              f"least {_f(100 * th.get('heldout_min_gain', 0.0), '.0f')} % of the held-out RMS, and "
-              f"BIC drops by more than {_f(-th['delta_bic_max'], '.0f')} on the whole record. The passing candidate "
-              "with the lowest BIC is added and the search repeats until nothing earns its keep.", ""]
+              f"least {_f(100 * th.get('heldout_min_gain', 0.0), '.0f')} % of the test RMS, "
+              f"BIC drops by more than {_f(-th['delta_bic_max'], '.0f')} on the whole record, the whole-record "
+              "residual RMS goes down, and its fit carries no flag (a parameter at a bound or not determined, "
+              "memory at beta = 1 that is an added mass): a flagged fit's values are not measurements. The passing "
+              "candidate with the lowest BIC is added and the search repeats until nothing earns its keep. "
+              "Each decision's margins are its z minus 3 and -10 minus its dBIC (> 0: passes); its stability is "
+              "the share of block-bootstrap records (the residuals of both models resampled together in blocks "
+              "as long as their correlation time) on which the same decision is made; below 80 % it is called "
+              "borderline. The effects kept are named as causes only when the final model leaves no structure "
+              "the catalogue cannot remove and its fit carries no new flag; otherwise they are listed as "
+              "improving the fit.", ""]
     return "\n".join(lines)

@@ -72,6 +72,43 @@ def effective_n(r: np.ndarray, *, max_lag: int | None = None) -> float:
     return float(max(1.0, n / (1.0 + 2.0 * s)))
 
 
+def heldout_test(theta: np.ndarray, pred_a: np.ndarray, pred_b: np.ndarray) -> tuple[float, float]:
+    """Test-sample RMS gain of prediction ``b`` over ``a`` and its z against noise.
+
+    The statistic of :mod:`pendtrack.discovery.selection`'s held-out rule (its docstring derives
+    it) and of the interleaved folds (:mod:`pendtrack.discovery.interleaved`).
+
+    Parameters
+    ----------
+    theta : ndarray
+        Held-out data [rad].
+    pred_a, pred_b : ndarray
+        Current and candidate predictions at the same samples [rad].
+
+    Returns
+    -------
+    gain : float
+        ``rms(theta - a) - rms(theta - b)`` [rad].
+    z : float
+        Significance of the mean-square gain [1].
+    """
+    if not (np.all(np.isfinite(pred_a)) and np.all(np.isfinite(pred_b))):
+        return (-math.inf if not np.all(np.isfinite(pred_b)) else math.inf), (
+            -math.inf if not np.all(np.isfinite(pred_b)) else math.inf)
+    e_a = theta - pred_a
+    e_b = theta - pred_b
+    ms_a = float(np.mean(e_a * e_a))
+    ms_b = float(np.mean(e_b * e_b))
+    gain = math.sqrt(ms_a) - math.sqrt(ms_b)
+    delta = pred_b - pred_a
+    md2 = float(np.mean(delta * delta))
+    if md2 <= 0:
+        return gain, 0.0
+    sd = 2.0 * math.sqrt(ms_b * md2 / effective_n(e_b))
+    return gain, (ms_a - ms_b) / sd
+
+
+
 @dataclass(frozen=True)
 class Whiteness:
     """Whiteness of a residual.

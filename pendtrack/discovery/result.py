@@ -41,6 +41,9 @@ class FitSummary:
     message : str
     runtime_s : float
         Wall time of the fit [s].
+    flags : mapping
+        Parameter -> why its value is not a measurement (``FitResult.flags``,
+        :func:`pendtrack.fitting.result.plausibility_flags`); empty for a trustworthy fit.
     """
 
     model: str
@@ -59,6 +62,7 @@ class FitSummary:
     converged: bool
     message: str
     runtime_s: float
+    flags: Mapping[str, str] = field(default_factory=dict)
 
     @classmethod
     def from_fit(cls, fit: Any, extra: tuple[str, ...]) -> "FitSummary":
@@ -70,7 +74,8 @@ class FitSummary:
                    theta0=float(fit.theta0), omega0=float(fit.omega0), xi2=float(fit.xi2_min), rms=float(fit.rms),
                    bic=float(fit.bic), n=int(fit.n), k=int(fit.n_params),
                    window=(float(fit.window[0]), float(fit.window[1])), converged=bool(fit.converged),
-                   message=str(fit.message), runtime_s=float(fit.runtime_s))
+                   message=str(fit.message), runtime_s=float(fit.runtime_s),
+                   flags={str(k): str(v) for k, v in (getattr(fit, "flags", None) or {}).items()})
 
     def params(self, names: tuple[str, ...] | None = None) -> dict[str, dict[str, float | None]]:
         """``{name: {"value", "stderr", "u_paper"}}`` for the named (default all) parameters."""
@@ -83,7 +88,7 @@ class FitSummary:
                 "initial_state": {"theta0": _num(self.theta0), "omega0": _num(self.omega0)},
                 "xi2": _num(self.xi2), "rms": _num(self.rms), "bic": _num(self.bic), "n": self.n, "k": self.k,
                 "window": [_num(self.window[0]), _num(self.window[1])], "converged": self.converged,
-                "message": self.message, "runtime_s": _num(self.runtime_s)}
+                "message": self.message, "runtime_s": _num(self.runtime_s), "flags": dict(self.flags)}
 
 
 @dataclass(frozen=True)
@@ -97,8 +102,8 @@ class Candidate:
     step : int
         Selection step (1 = first extension of the baseline).
     signature_score : float
-        Its signature score on the current model's diagnosis (the order it was tried in); for a
-        measurement term 1 when its training fit held the physics at the current fit, else 0.
+        Its signature score on the current model's diagnosis (the order it was tried in); 0 for a
+        measurement term.
     train, full : FitSummary
         Fit on the training part and on the whole record.
     heldout_rms : float
@@ -119,6 +124,23 @@ class Candidate:
         ``"measurement"`` (a term of the observation) or ``"effect"`` (physics).
     note : str
         Why a term kept earlier was dropped (the final check), else "".
+    flags : mapping
+        Flags of its whole-record fit that the term brought (on its own parameters, or new
+        against the current model's fit: memory at ``beta`` = 1 flags ``Omega0`` as an added
+        mass): a term whose fit is flagged is not kept, its values are not measurements.
+    lowers_rms : bool
+        Its whole-record fit's residual RMS is below the current model's (True when not refitted).
+    test : str
+        ``"heldout"`` (the training fit extrapolated into the held-out part: effects) or
+        ``"interleaved"`` (interleaved-block cross-validation: measurement terms,
+        :mod:`pendtrack.discovery.interleaved`).
+    test_rms_before : float
+        The current model's RMS on the test samples [rad] (NaN: its held-out RMS).
+    margins : mapping
+        Rule -> ``{"value", "threshold", "margin"}``; margin > 0 passes (z - 3, -10 - dBIC, ...).
+    stability : float
+        Share of block-bootstrap records on which the same decision is made
+        (:mod:`pendtrack.discovery.stability`) [1]; NaN when not assessed.
     """
 
     effect: str
@@ -136,6 +158,12 @@ class Candidate:
     terms: tuple[str, ...] = ()
     kind: str = "effect"
     note: str = ""
+    flags: Mapping[str, str] = field(default_factory=dict)
+    lowers_rms: bool = True
+    test: str = "heldout"
+    test_rms_before: float = math.nan
+    margins: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    stability: float = math.nan
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -144,8 +172,15 @@ class Candidate:
 
     @property
     def earns_keep(self) -> bool:
-        """Both tests passed."""
-        return self.passes_bic and self.passes_heldout and not self.error
+        """Every rule passed: the test, BIC, a lower whole-record residual, an unflagged fit."""
+        return self.passes_bic and self.passes_heldout and self.lowers_rms and not self.flags and not self.error
+
+    @property
+    def borderline(self) -> bool:
+        """Its decision is made on fewer than 80 % of resampled records (:data:`~pendtrack.discovery.stability.BORDERLINE`)."""
+        from pendtrack.discovery.stability import BORDERLINE
+
+        return bool(math.isfinite(self.stability) and self.stability < BORDERLINE)
 
     def reason(self) -> str:
         """One line: why it was (not) kept."""
@@ -153,12 +188,18 @@ class Candidate:
             return self.note
         if self.error:
             return f"could not be fitted: {self.error}"
+        what = "held-out" if self.test == "heldout" else "interleaved cross-validation"
         if not math.isfinite(self.delta_bic):
-            return (f"held-out gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f} (not significant); "
+            return (f"{what} gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f} (not significant); "
                     "not refitted on the whole record, no dBIC")
         parts = [f"dBIC {self.delta_bic:+.1f}" + ("" if self.passes_bic else " (not < threshold)"),
-                 f"held-out gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f}"
+                 f"{what} gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f}"
                  + ("" if self.passes_heldout else " (not significant)")]
+        if not self.lowers_rms:
+            parts.append("the whole-record residual RMS does not go down")
+        if self.flags:
+            parts.append("its fit is flagged (" + "; ".join(f"{k} {v}" for k, v in self.flags.items())
+                         + "): its values are not measurements")
         return "; ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
@@ -172,6 +213,8 @@ class Candidate:
                 "heldout_rms": _num(self.heldout_rms), "heldout_gain": _num(self.heldout_gain),
                 "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic), "passes_bic": self.passes_bic,
                 "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep and not self.note,
+                "lowers_rms": self.lowers_rms, "flags": dict(self.flags), "test": self.test,
+                "margins": _jsonable(self.margins), "stability": _num(self.stability), "borderline": self.borderline,
                 "reason": self.reason(),
                 "error": self.error}
 
@@ -206,6 +249,12 @@ class Step:
         ``"measurement"`` or ``"effect"``.
     step : int
         Its number within its kind (1 = first).
+    test : str
+        The candidate's test (``"heldout"`` or ``"interleaved"``; see :class:`Candidate`).
+    margins : mapping
+        Rule -> ``{"value", "threshold", "margin"}`` (:class:`Candidate`).
+    stability : float
+        Share of resampled records deciding alike [1] (:class:`Candidate`).
     """
 
     effect: str
@@ -218,14 +267,26 @@ class Step:
     terms: tuple[str, ...] = ()
     kind: str = "effect"
     step: int = 0
+    test: str = "heldout"
+    margins: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    stability: float = math.nan
 
     @property
     def names(self) -> tuple[str, ...]:
         """The terms added (``terms``, or the one ``effect``)."""
         return self.terms or (self.effect,)
 
+    @property
+    def borderline(self) -> bool:
+        """Kept on fewer than 80 % of resampled records (:class:`Candidate`)."""
+        from pendtrack.discovery.stability import BORDERLINE
+
+        return bool(math.isfinite(self.stability) and self.stability < BORDERLINE)
+
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "terms": list(self.names), "kind": self.kind, "step": self.step,
+                "test": self.test, "margins": _jsonable(self.margins), "stability": _num(self.stability),
+                "borderline": self.borderline, "flags": dict(self.after.flags),
                 "model": self.after.model,
                 "params": self.after.params(_term_params(self.names)),
                 "rms_before": _num(self.before.rms), "rms_after": _num(self.after.rms),
@@ -244,7 +305,9 @@ class DiscoveryResult:
     baseline : str
         Baseline model name.
     effects : tuple of str
-        Physical effects kept, in the order they were added (measurement terms are not effects).
+        The causes named: physical effects kept, in the order they were added, when the final
+        model leaves no structure the catalogue cannot remove and none of their fits is
+        flagged (measurement terms are not effects).
     steps : tuple of Step
         The physical steps.
     candidates : tuple of Candidate
@@ -272,6 +335,10 @@ class DiscoveryResult:
     unexplained : tuple of str
         Diagnostics still off after the final model
         (:func:`~pendtrack.discovery.diagnostics.off_diagnostics`): structure no term removed.
+    partial : tuple of str
+        Physical effects kept in the model that are not named as causes: they lower the
+        residual, but structure remains that the catalogue cannot remove (``unexplained``), or
+        their parameters are flagged in the final fit. In the order kept.
 
     ``equivalents`` (a property, in discovery.json): models as large as the final one that the
     record does not tell apart from it.
@@ -293,6 +360,12 @@ class DiscoveryResult:
     measurement_steps: tuple[Step, ...] = ()
     unexplained: tuple[str, ...] = ()
     order: tuple[str, ...] = ()
+    partial: tuple[str, ...] = ()
+
+    @property
+    def kept(self) -> tuple[str, ...]:
+        """Every physical effect of the final model: the causes, then the partial ones."""
+        return (*self.effects, *self.partial)
 
     @property
     def runners_up(self) -> tuple[Candidate, ...]:
@@ -316,7 +389,8 @@ class DiscoveryResult:
         """
         from pendtrack.models import MEASUREMENT_TERMS
 
-        if not self.effects:
+        kept = self.kept
+        if not kept:
             return ()
         margin = -float(self.thresholds.get("delta_bic_max", -10.0))
         best: dict[tuple[str, ...], Candidate] = {}
@@ -324,7 +398,7 @@ class DiscoveryResult:
             if c.step == 0 or c.kind != "effect" or c.full is None or not c.earns_keep:
                 continue
             effects = tuple(sorted(t for t in c.full.extra if t not in MEASUREMENT_TERMS))
-            if len(effects) != len(self.effects) or set(effects) == set(self.effects):
+            if len(effects) != len(kept) or set(effects) == set(kept):
                 continue
             if c.full.bic - self.final_fit.bic <= margin and (effects not in best
                                                                or c.full.bic < best[effects].full.bic):
@@ -338,14 +412,15 @@ class DiscoveryResult:
         return {
             "baseline": self.baseline,
             "effects": list(self.effects),
+            "partial": list(self.partial),
             "steps": [s.to_dict() for s in self.steps],
             "measurement": list(self.measurement),
             "measurement_steps": [s.to_dict() for s in self.measurement_steps],
             "unexplained": list(self.unexplained),
             "equivalents": list(self.equivalents),
-            "order": list(self.order or (*self.measurement, *self.effects)),
+            "order": list(self.order or (*self.measurement, *self.kept)),
             "diagnosis": _jsonable(self.diagnosis),
-            "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.effects),
+            "final_model": {**self.final_fit.to_dict(), "terms_added": list(self.kept),
                             "measurement_terms": list(self.measurement),
                             "heldout_rms": _num(self.final_heldout_rms)},
             "runners_up": [c.to_dict() for c in self.runners_up],

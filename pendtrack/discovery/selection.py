@@ -17,7 +17,7 @@ Candidates of one step are independent, so they run in parallel worker processes
 
 Decision thresholds
 -------------------
-An effect is kept only if both hold:
+An effect is kept only if all hold:
 
 ``delta_bic < delta_bic_max`` (-10)
     BIC approximates ``-2 ln`` of the Bayes factor, so -10 means odds above e^5 ~ 150:1 for
@@ -44,7 +44,27 @@ An effect is kept only if both hold:
     below 1 % of the held-out RMS changes no physical conclusion; a real missing effect of
     the size that matters (a baseline residual >= 1.2 x the noise) gains far more.
 
-Among the candidates that pass both, the one with the lowest BIC is kept; the others are the
+The whole-record residual RMS goes down
+    An effect is kept only if it lowers the whole-record residual of the angle: the cost
+    (Xi^2 weighs the angular velocity too) can fall while the angle's residual rises, and a
+    term that makes the record's angle worse explains nothing of it.
+
+The candidate's whole-record fit carries no flag of its own (:func:`own_flags`)
+    ``FitResult.flags`` (:func:`pendtrack.fitting.result.plausibility_flags`): a parameter of
+    the new term at an optimiser bound or not determined by the data, or a flag the term
+    brings onto the others (memory with ``beta`` and ``p_f`` near 1 flags ``Omega0``: the term
+    is an added mass). A flagged fit's values are not measurements, so the term is not named.
+
+A **measurement term** is judged by interleaved-block cross-validation instead of the
+held-out extrapolation (:mod:`pendtrack.discovery.interleaved`), by the same z, gain and the
+other rules. Every decision carries its margins (``z - 3``, ``-10 - dBIC``, ...) and its
+stability over block-bootstrap records (:mod:`pendtrack.discovery.stability`).
+
+The whole-record fit of a candidate starts from its training fit and from the current
+model's whole-record fit with the new terms at their training values (``FitTask.full_base``):
+its minimum then does not hang on how one training fit extrapolated.
+
+Among the candidates that pass all rules, the one with the lowest BIC is kept; the others are the
 step's runners-up. The held-out test guards against terms that only fit; it is a poor
 *ranker*: the held-out error of the true model is dominated by how its training-part
 parameter errors extrapolate, and a more flexible wrong term (memory with beta ~ 1 mimics
@@ -67,7 +87,8 @@ import numpy as np
 
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.discovery.data import AnalysisData
-from pendtrack.discovery.residuals import effective_n
+from pendtrack.discovery.interleaved import FoldTest
+from pendtrack.discovery.residuals import heldout_test
 from pendtrack.discovery.result import Candidate, FitSummary
 from pendtrack.parallel import process_pool
 
@@ -113,6 +134,9 @@ class FitTask:
     workers: int = 1
     extra_starts: tuple[dict[str, float], ...] = ()  # further complete starts (best training cost wins)
     fixed: dict[str, float] | None = None  # parameters held in the training fit (a measurement term's physics)
+    # the current model's whole-record fit (values, theta0, omega0): the whole-record fit also starts there,
+    # the new terms at their training values, so that its minimum does not hang on the training fit alone
+    full_base: dict[str, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,7 +218,7 @@ def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
     fit = fit_model(model, d.t, d.theta, d.omega, options=options, model_options=model_options, alpha=d.alpha,
                     window=None if full else d.train_window, observation=obs, initial=task.initial,
                     fixed=None if full else task.fixed,
-                    extra_starts=() if full else task.extra_starts, seed=task.seed, workers=task.workers,
+                    extra_starts=task.extra_starts, seed=task.seed, workers=task.workers,
                     source=d.source)
     log.debug("fit %s (%s): xi2 %.6g rms %.6g in %.1f s", model.name, "whole" if full else "train",
               fit.xi2_min, fit.rms, time.perf_counter() - t_wall)
@@ -233,12 +257,16 @@ def fit_train(task: FitTask) -> FitPair:
 
 
 def fit_full(task: FitTask, pair: FitPair) -> FitPair:
-    """Refit a trained model on the whole record (warm start at its training fit)."""
+    """Refit a trained model on the whole record: from its training fit, and from ``task.full_base``
+    (the current model's whole-record fit) with the new terms at their training values."""
     from pendtrack.errors import PendtrackError
 
     if pair.train is None:
         return pair
-    full_task = replace(task, initial=warm_start(pair))
+    full_task = replace(task, initial=warm_start(pair), extra_starts=())
+    if task.full_base is not None:
+        train = warm_start(pair)
+        full_task = replace(full_task, extra_starts=({**train, **{k: v for k, v in task.full_base.items() if k in train}},))
     try:
         model, fit = _fit(full_task, full=True)
         full = FitSummary.from_fit(fit, task.extra)
@@ -252,39 +280,6 @@ def fit_pair(task: FitTask) -> FitPair:
     """:func:`fit_train` then :func:`fit_full` (the baseline, and the synthetic-run check)."""
     pair = fit_train(task)
     return fit_full(task, pair) if not pair.error else pair
-
-
-def heldout_test(theta: np.ndarray, pred_a: np.ndarray, pred_b: np.ndarray) -> tuple[float, float]:
-    """Held-out RMS gain of prediction ``b`` over ``a`` and its z against noise (module docstring).
-
-    Parameters
-    ----------
-    theta : ndarray
-        Held-out data [rad].
-    pred_a, pred_b : ndarray
-        Current and candidate predictions at the same samples [rad].
-
-    Returns
-    -------
-    gain : float
-        ``rms(theta - a) - rms(theta - b)`` [rad].
-    z : float
-        Significance of the mean-square gain [1].
-    """
-    if not (np.all(np.isfinite(pred_a)) and np.all(np.isfinite(pred_b))):
-        return (-math.inf if not np.all(np.isfinite(pred_b)) else math.inf), (
-            -math.inf if not np.all(np.isfinite(pred_b)) else math.inf)
-    e_a = theta - pred_a
-    e_b = theta - pred_b
-    ms_a = float(np.mean(e_a * e_a))
-    ms_b = float(np.mean(e_b * e_b))
-    gain = math.sqrt(ms_a) - math.sqrt(ms_b)
-    delta = pred_b - pred_a
-    md2 = float(np.mean(delta * delta))
-    if md2 <= 0:
-        return gain, 0.0
-    sd = 2.0 * math.sqrt(ms_b * md2 / effective_n(e_b))
-    return gain, (ms_a - ms_b) / sd
 
 
 def run_tasks(fn: Callable[..., FitPair], args: Sequence[tuple], *, on_done: Callable[[int], None] | None = None,
@@ -328,25 +323,79 @@ def passes_heldout(gain: float, z: float, heldout_z_min: float, *, min_gain: flo
     return bool(gain > 0 and z > heldout_z_min and gain >= min_gain * heldout_rms)
 
 
+def own_flags(pair: FitPair, current: FitPair, terms: Sequence[str]) -> dict[str, str]:
+    """Flags of the candidate's whole-record fit that its terms brought.
+
+    A flag on one of the new terms' parameters, or one the current model's fit does not carry
+    (memory at ``beta`` = 1 flags ``Omega0``: the term is an added mass and Omega0 trades off
+    against G2). A flag the current fit already carries (a baseline parameter the record does
+    not determine) is not the new term's.
+    """
+    from pendtrack.models import CATALOGUE
+
+    if pair.full is None:
+        return {}
+    mine = {p for t in terms if t in CATALOGUE for p in CATALOGUE[t].params}
+    before = current.full.flags if current.full is not None else {}
+    return {k: v for k, v in pair.full.flags.items() if k in mine or k not in before}
+
+
+def rule_margins(z: float, gain: float, rms_ref: float, dbic: float, *, heldout_z_min: float, min_gain: float,
+             delta_bic_max: float, rms_change: float) -> dict[str, dict[str, float]]:
+    """Each rule's value, threshold and margin (> 0: passes); NaN for a rule not reached."""
+    share = gain / rms_ref if rms_ref > 0 and math.isfinite(rms_ref) else math.nan
+    return {"z": {"value": z, "threshold": heldout_z_min, "margin": z - heldout_z_min},
+            "gain_share": {"value": share, "threshold": min_gain, "margin": share - min_gain},
+            "delta_bic": {"value": dbic, "threshold": delta_bic_max, "margin": delta_bic_max - dbic},
+            "rms_drop": {"value": rms_change, "threshold": 0.0, "margin": rms_change}}
+
+
 def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, step: int, score: float,
           delta_bic_max: float, heldout_z_min: float, min_gain: float = 0.0, terms: tuple[str, ...] = (),
-          kind: str = "effect") -> Candidate:
-    """Compare a fitted candidate with the current model: the two tests of the module docstring.
+          kind: str = "effect", test: FoldTest | None = None, seed: int = 0) -> Candidate:
+    """Compare a fitted candidate with the current model: the rules of the module docstring.
 
-    The same tests judge a measurement term, a single effect and a combination of effects
+    The same rules judge a measurement term, a single effect and a combination of effects
     (``terms``; its parameters are all paid for in BIC). A candidate without a whole-record
     fit (it failed the held-out test, so it was not refitted) has ``delta_bic = NaN``.
+    ``test``: a measurement term's interleaved test (:mod:`pendtrack.discovery.interleaved`),
+    which then stands in for the held-out test. Every candidate gets its margins against each
+    rule and the stability of its decision (:mod:`pendtrack.discovery.stability`).
     """
+    from pendtrack.discovery.stability import Rules, decision_stability
+
+    names = terms or (effect,)
+    which = "interleaved" if test is not None else "heldout"
     if pair.error or pair.train is None or current.full is None:
         return Candidate(effect, step, score, pair.train, pair.full, math.inf, -math.inf, -math.inf, math.nan,
-                         False, False, error=pair.error or "fit failed", terms=terms, kind=kind)
-    gain, z = judge_heldout(pair, current, data)
+                         False, False, error=pair.error or "fit failed", terms=terms, kind=kind, test=which,
+                         stability=1.0)
+    if test is not None:
+        gain, z = test.gain, test.z
+        rms_ref, rms_test = test.rms_before, test.rms_after
+        samples = (data.theta, current.trajectory, test.prediction)
+    else:
+        gain, z = judge_heldout(pair, current, data)
+        rms_ref, rms_test = current.heldout_rms, pair.heldout_rms
+        held = data.heldout
+        samples = (data.theta[held], current.prediction[held], pair.prediction[held])
     dbic = pair.full.bic - current.full.bic if pair.full is not None else math.nan
-    return Candidate(effect=effect, step=step, signature_score=score, train=pair.train, full=pair.full,
-                     heldout_rms=pair.heldout_rms, heldout_gain=gain, heldout_z=z, delta_bic=dbic,
-                     passes_bic=bool(dbic < delta_bic_max),
-                     passes_heldout=passes_heldout(gain, z, heldout_z_min, min_gain=min_gain,
-                                                   heldout_rms=current.heldout_rms), terms=terms, kind=kind)
+    rms_change = current.full.rms - pair.full.rms if pair.full is not None else math.nan
+    flags = own_flags(pair, current, names)
+    passes_h = passes_heldout(gain, z, heldout_z_min, min_gain=min_gain, heldout_rms=rms_ref)
+    lowers = bool(pair.full is None or rms_change > 0)
+    cand = Candidate(effect=effect, step=step, signature_score=score, train=pair.train, full=pair.full,
+                     heldout_rms=rms_test, heldout_gain=gain, heldout_z=z, delta_bic=dbic,
+                     passes_bic=bool(dbic < delta_bic_max), passes_heldout=passes_h, terms=terms, kind=kind,
+                     flags=flags, lowers_rms=lowers, test=which,
+                     test_rms_before=rms_ref if test is not None else math.nan,
+                     margins=rule_margins(z, gain, rms_ref, dbic, heldout_z_min=heldout_z_min, min_gain=min_gain,
+                                      delta_bic_max=delta_bic_max, rms_change=rms_change))
+    whole = (data.theta, current.trajectory, pair.trajectory) if pair.full is not None else None
+    stab = decision_stability(kept=cand.earns_keep, test=samples, test_rms_ref=rms_ref, whole=whole,
+                              delta_bic=dbic, n_bic=pair.full.n if pair.full is not None else 0,
+                              rules=Rules(heldout_z_min, min_gain, delta_bic_max), fixed=bool(flags), seed=seed)
+    return replace(cand, stability=stab)
 
 
 def choose(cands: Iterable[Candidate]) -> Candidate | None:
@@ -364,6 +413,13 @@ def warm_start(pair: FitPair) -> dict[str, float]:
     """Parameters and initial state of a training fit, to start the next fits from."""
     assert pair.train is not None
     return {**pair.train.values, "theta0": pair.train.theta0, "omega0": pair.train.omega0}
+
+
+def full_start(pair: FitPair) -> dict[str, float] | None:
+    """Parameters and initial state of a whole-record fit (None without one)."""
+    if pair.full is None:
+        return None
+    return {**pair.full.values, "theta0": pair.full.theta0, "omega0": pair.full.omega0}
 
 
 def elapsed(t0: float) -> float:

@@ -32,6 +32,11 @@ SCALE_ERROR = (0.05, 0.15)  # |k_scale| (2.5 rad)^2 of an angle-scale run: theta
 SCALE_AT = 2.5  # [rad]
 SCALE_RELEASE = 2.6  # largest release of an angle-scale run [rad]
 SIZE_CHECKED = ("memory", "time_varying_damping")  # effects redrawn until a standard fit cannot absorb them
+#: Physics outside the catalogue, for controls: no catalogue effect is its cause.
+#: ``drifting_omega0``: the natural frequency drifts linearly in time, as from a string that stretches.
+OUTSIDE = ("drifting_omega0",)
+OMEGA0_DRIFT = (-0.0048, -0.0024)  # relative change of Omega0 over DRIFT_SPAN_S: -0.24 to -0.48 % [1]
+DRIFT_SPAN_S = 60.0  # [s]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +65,8 @@ class SyntheticRun:
         The measurement artefact the observation carries (``offset``, ``angle_scale``) or None.
     rate_hz : float
         Sampling rate [1/s].
+    outside : str or None
+        Physics outside the catalogue the run carries (:data:`OUTSIDE`), or None.
     """
 
     t: np.ndarray
@@ -73,6 +80,7 @@ class SyntheticRun:
     effects: tuple[str, ...] = ()
     measurement: str | None = None
     rate_hz: float = RATE_HZ
+    outside: str | None = None
 
 
 def _draw_params(rng: np.random.Generator, effect: str | None | tuple[str, ...]) -> dict[str, float]:
@@ -136,6 +144,56 @@ def simulate_run(params: dict[str, float], effect: str | None | tuple[str, ...],
                                                                if k not in physical}}))
     return t, theta + rng.normal(0.0, noise, t.size)
 
+RK4_STEP_S = 1.0 / 240.0  # the drifting run's RK4 step [s]: 25 urad from a 4x finer step on 60 s (noise 2-5 mrad)
+
+
+def simulate_drifting(params: dict[str, float], *, duration: float, theta0: float, noise: float,
+                      rng: np.random.Generator, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
+    """``standard`` whose natural frequency drifts: ``Omega0(t) = Omega0 (1 + drift t / DRIFT_SPAN_S)``.
+
+    Gravity's term ``-Omega0(t)^2 sin theta`` follows the drift (``params["omega0_drift"]``,
+    the relative change over :data:`DRIFT_SPAN_S`); the damping is the standard model's
+    (:func:`pendtrack.models.kernels.accel_free`). Classic RK4 with steps of at most
+    :data:`RK4_STEP_S` (fixed steps: the Coulomb term's switch at every turning point stalls
+    an adaptive integrator), from rest at ``theta0``.
+
+    Returns
+    -------
+    t, theta : ndarray
+        [s], [rad] with white noise of ``noise`` [rad].
+    """
+    from pendtrack.models import get_model
+    from pendtrack.models.kernels import accel_free
+
+    model = get_model("standard")
+    physical = {k: v for k, v in params.items() if k in model.param_names}
+    w0, drift = physical["Omega0"], float(params["omega0_drift"])
+    coeffs = model.pack(physical)  # validated once: the right-hand side is called ~1e5 times
+    t = np.arange(int(round(duration * rate_hz))) / rate_hz
+
+    def alpha(time: float, th: float, om: float) -> float:
+        w = w0 * (1.0 + drift * time / DRIFT_SPAN_S)
+        sgn = 1.0 if om >= 0.0 else -1.0  # sgn(0) = +1, as the kernels
+        return float(accel_free(th, math.sin(th), om, time, sgn, coeffs)) + (w0 * w0 - w * w) * math.sin(th)
+
+    sub = max(1, math.ceil(1.0 / (rate_hz * RK4_STEP_S)))
+    h = 1.0 / (rate_hz * sub)
+    out = np.empty(t.size)
+    th, om, time = float(theta0), 0.0, 0.0
+    out[0] = th
+    for i in range(1, t.size):
+        for _ in range(sub):
+            a1 = alpha(time, th, om)
+            a2 = alpha(time + 0.5 * h, th + 0.5 * h * om, om + 0.5 * h * a1)
+            a3 = alpha(time + 0.5 * h, th + 0.5 * h * (om + 0.5 * h * a1), om + 0.5 * h * a2)
+            a4 = alpha(time + h, th + h * (om + 0.5 * h * a2), om + h * a3)
+            th += h * (6.0 * om + h * (a1 + a2 + a3)) / 6.0
+            om += h * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
+            time += h
+        out[i] = th
+    return t, out + rng.normal(0.0, noise, t.size)
+
+
 def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
     """Residual RMS of a whole-record output-error fit of ``standard``, over the noise [1]."""
     from pendtrack.config import Config
@@ -157,7 +215,7 @@ def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
 def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: bool = True, max_draws: int = 20,
              measurement: str | None = None, rate_hz: float = RATE_HZ,
              duration: tuple[float, float] = (60.0, 90.0),
-             noise: tuple[float, float] = (0.002, 0.004)) -> SyntheticRun:
+             noise: tuple[float, float] = (0.002, 0.004), outside: str | None = None) -> SyntheticRun:
     """A synthetic run carrying ``effect`` (one, a pair, or none), drawn from ``seed``.
 
     Parameters
@@ -179,8 +237,15 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
         Sampling rate [1/s].
     duration, noise : (float, float)
         Ranges the record's length [s] and noise standard deviation [rad] are drawn from.
+    outside : str, optional
+        Physics outside the catalogue (:data:`OUTSIDE`) instead of a hidden effect: a control
+        on which no catalogue effect may be named as the cause.
     """
     effects = _as_tuple(effect)
+    if outside is not None:
+        if outside not in OUTSIDE or effects or measurement is not None:
+            raise ValueError(f"physics outside the catalogue is one of {OUTSIDE}, alone (got {outside!r})")
+        return _draw_outside(seed, outside, rate_hz=rate_hz, duration=duration, noise=noise)
     for e in effects:
         if e not in HIDDEN_EFFECTS:
             raise ValueError(f"unknown hidden effect {e!r}")
@@ -217,3 +282,15 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
         return SyntheticRun(t, theta, effects[0] if effects else None, params, theta0, sd, excess, draw,
                             effects=effects, measurement=measurement, rate_hz=rate_hz)
     raise RuntimeError(f"no {effects} run of detectable size in {max_draws} draws (seed {seed})")
+
+
+def _draw_outside(seed: int, outside: str, *, rate_hz: float, duration: tuple[float, float],
+                  noise: tuple[float, float]) -> SyntheticRun:
+    """A run of ``standard`` with physics outside the catalogue (:data:`OUTSIDE`)."""
+    rng = np.random.default_rng(seed)
+    dur = rng.uniform(*duration)
+    theta0 = rng.uniform(2.6, 3.0)
+    sd = rng.uniform(*noise)
+    params = {**_draw_params(rng, None), "omega0_drift": rng.uniform(*OMEGA0_DRIFT)}
+    t, theta = simulate_drifting(params, duration=dur, theta0=theta0, noise=sd, rng=rng, rate_hz=rate_hz)
+    return SyntheticRun(t, theta, None, params, theta0, sd, rate_hz=rate_hz, outside=outside)

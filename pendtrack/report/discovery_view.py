@@ -1,7 +1,8 @@
 """The discovery narrative of a run: discovery.md, then the evidence and gains from discovery.json.
 
 discovery.json (``pendtrack.discovery.result.DiscoveryResult.to_dict``): ``baseline`` (model
-name), ``effects`` (the effects kept, in order), ``steps`` (per kept effect: ``rms_before``/
+name), ``effects`` (the causes named, in order), ``partial`` (effects kept that improve the fit without
+explaining the record), ``steps`` (per kept effect: ``rms_before``/
 ``rms_after``, ``heldout_rms_before``/``heldout_rms_after``, ``delta_bic``, the new parameters),
 ``diagnosis`` (the baseline's evidence scores, the ranking of candidate effects, the cause),
 ``final_model`` (its fit), ``runners_up`` (effects tried and not kept, with the reason).
@@ -50,13 +51,17 @@ def _steps_table(steps: list[Any]) -> Table:
     for i, step in enumerate((s for s in steps if isinstance(s, Mapping)), 1):
         hb, ha = number(step.get("heldout_rms_before")), number(step.get("heldout_rms_after"))
         gain = f"{100 * (1 - ha / hb):.1f} %" if hb and ha is not None else None
+        stab = number(step.get("stability"))
         rows.append((i, str(step.get("effect", "")), _params_text(step.get("params")), _mrad(step.get("rms_before")),
-                     _mrad(step.get("rms_after")), _mrad(hb), _mrad(ha), gain, number(step.get("delta_bic"))))
-    return Table(("step", "effect added", "its parameters", "RMS before [mrad]", "RMS after [mrad]",
-                  "held-out before [mrad]", "held-out after [mrad]", "held-out gain", "ΔBIC"), tuple(rows),
-                 caption="Each step adds one physical effect to the model. The evidence that it is real: the RMS of "
-                         "θ − θ<sub>model</sub> on the fitted part and, what counts, on the held-out part of the "
-                         "record, and ΔBIC (negative favours the effect).",
+                     _mrad(step.get("rms_after")), _mrad(hb), _mrad(ha), gain, number(step.get("delta_bic")),
+                     None if stab is None else f"{100 * stab:.0f} %" + (" borderline" if step.get("borderline") else "")))
+    return Table(("step", "term added", "its parameters", "RMS before [mrad]", "RMS after [mrad]",
+                  "test before [mrad]", "test after [mrad]", "test gain", "ΔBIC", "stability"), tuple(rows),
+                 caption="Each step adds one term to the model. The evidence that it is real: the RMS of "
+                         "θ − θ<sub>model</sub> on the whole record and, what counts, on data it was not fitted to "
+                         "(an effect: the held-out part of the record; a measurement term: interleaved blocks), "
+                         "ΔBIC (negative favours the term), and the share of resampled records on which the same "
+                         "decision is made (below 80 %: borderline).",
                  text_columns=(1, 2), key="discovery-steps")
 
 
@@ -110,9 +115,12 @@ def discovery_section(run: RunData) -> Section:
     final = d.get("final_model")
     diagnosis = d.get("diagnosis")
     effects = d.get("effects")
+    partial = d.get("partial")
     facts = [("baseline model", str(d.get("baseline", ""))),
-             ("effects added", ", ".join(map(str, effects)) if isinstance(effects, list) and effects else "none"),
+             ("causes named", ", ".join(map(str, effects)) if isinstance(effects, list) and effects else "none"),
              ("discovered model", _model_name(final))]
+    if isinstance(partial, list) and partial:  # kept, improving the fit without explaining the record (#29)
+        facts.append(("effects that improve the fit (not causes)", ", ".join(map(str, partial))))
     measurement = d.get("measurement")
     if isinstance(measurement, list) and measurement:  # measurement findings (issue #14): not causes
         facts.append(("measurement findings", ", ".join(map(str, measurement))))
@@ -137,7 +145,8 @@ def discovery_section(run: RunData) -> Section:
     if run.discovery_md:
         blocks += [Heading("Narrative (discovery.md)"), Html(to_html(run.discovery_md))]
     blocks.append(Heading("Evidence and gains"))
-    steps = d.get("steps") if isinstance(d.get("steps"), list) else []
+    steps = [*(d.get("measurement_steps") if isinstance(d.get("measurement_steps"), list) else []),
+             *(d.get("steps") if isinstance(d.get("steps"), list) else [])]
     blocks.append(_steps_table(steps) if steps else Note("Discovery kept no effect: the baseline model stands."))
     if isinstance(diagnosis, Mapping):
         for table in (_evidence_table(diagnosis),

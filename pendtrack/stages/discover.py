@@ -116,7 +116,7 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
         result = discover(series, config=config, on_progress=advance)
     record = result.to_dict()
     facts = {"source": str(source), "analysed": str(analysed), "baseline": result.baseline,
-             "effects": list(result.effects), "measurement": list(result.measurement),
+             "effects": list(result.effects), "partial": list(result.partial), "measurement": list(result.measurement),
              "unexplained": list(result.unexplained), "baseline_rms": result.baseline_fit.rms,
              "baseline_heldout_rms": result.baseline_heldout_rms, "final_rms": result.final_fit.rms,
              "final_heldout_rms": result.final_heldout_rms, "runtime_s": result.runtime_s, "input": rec.info}
