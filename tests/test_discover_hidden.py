@@ -156,7 +156,8 @@ def _check_measurement(outcomes: list[dict], bar: float = 0.9) -> None:
 # added mass misses the z gate as before); memory seed 1369428722 (beta 0.655, p_f 1.06) is fitted at
 # beta = 0.45 +- 0.61, p_f = 1.26 +- 0.54, which FitResult.flags marks as an added mass (both within 2 standard
 # errors of 1) although beta is undetermined rather than at 1, so power drag is kept instead (partial: the
-# dephasing stays unexplained, no cause named). The bar is not met until that flag asks beta to be measured at 1.
+# dephasing stays unexplained, no cause named). The flag now asks beta and p_f to be measured (standard
+# errors <= 0.25, fitting.result.INERTIA_RESOLUTION) before it calls the term an added mass.
 @pytest.mark.slow  # 9 cases of 50-110 s: the default suite's 15 minutes cannot hold them
 def test_single_effect_at_30fps():
     seeds = _seeds(11, 5)[:3] + _seeds(14, 6)

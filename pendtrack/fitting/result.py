@@ -76,6 +76,10 @@ UNDETERMINED_RATIO = 2.0
 # the swing at beta = 0.99995 +- 0.007, p_f = 0.994 +- 0.005). Flagged where the data cannot
 # tell beta and p_f from 1: both within this many standard errors of it.
 INERTIA_SIGMAS = 2.0
+# ... and measured there: a standard error of beta and of p_f at most this. beta = 0.45 +- 0.61 (a 30-fps
+# memory record) is within 2 standard errors of 1 only because it is not measured at all; the interval
+# then spans velocity-like (0) and acceleration-like (1) drag alike, and the fit is no added mass
+INERTIA_RESOLUTION = 0.25
 
 
 def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray, lower: np.ndarray,
@@ -95,7 +99,8 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
       floor, one above :data:`UNDETERMINED_RATIO` times the magnitude of the value (for ``t0``:
       of ``t_start - t0``);
     * **the memory term an added mass** (``Omega0`` flagged): ``G2 > 0`` with ``beta`` and
-      ``p_f`` both within :data:`INERTIA_SIGMAS` standard errors of 1, where the term is
+      ``p_f`` both measured (standard errors at most :data:`INERTIA_RESOLUTION`) and within
+      :data:`INERTIA_SIGMAS` standard errors of 1, where the term is
       indistinguishable from ``G2 dA_omega/dt*``: Omega0 is then the frequency without that
       mass and trades off against G2, not the frequency of the swing.
 
@@ -238,7 +243,7 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
         return ""
     for n in ("beta", "p_f"):
         v, se = at[n]
-        if not (math.isfinite(se) and abs(v - 1.0) <= INERTIA_SIGMAS * se):
+        if not (math.isfinite(se) and se <= INERTIA_RESOLUTION and abs(v - 1.0) <= INERTIA_SIGMAS * se):
             return ""
     (b, sb), (pf, spf) = at["beta"], at["p_f"]
     return (f"not the frequency of the swing: the memory term is an added mass (beta = {b:.4g} +- {sb:.2g} and "
