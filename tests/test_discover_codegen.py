@@ -29,10 +29,11 @@ REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():
     REAL = Path("/work/shared/data/real-tyler-phy180/lab1_data.txt")
 
-# Two generations in the same basin end at minima that differ by the optimiser's stopping tolerance
-# (relative cost changes ~1e-10 in the refine step), not more: 1e-6 of Xi^2 is far from that and far
-# below what separates two basins (BIC differences of units, i.e. Xi^2 ratios of 1e-3 on 4660 residuals).
-XI2_RTOL = 1e-6
+# The fits' minima must agree to what matters for a decision: their BIC (n ln Xi^2 + k ln n) within 1 % of the
+# 10 a term needs to be kept. Measured: lab1's baseline and final Xi^2 agree to 1e-14 (relative); on the
+# drifting-Omega0 control the final model (power drag, a sloppy valley in its exponent) to 5.7e-6, a BIC
+# difference of 0.02.
+BIC_ATOL = 0.1
 
 
 @pytest.fixture(scope="module")
@@ -55,6 +56,14 @@ def _discover(source: Path, out: Path, cache: Path, *, generic: bool, columns: s
     return json.loads((out / "discovery.json").read_text())
 
 
+def _same_minima(host: dict, generic: dict) -> None:
+    """The baseline's, every kept step's and the final model's fits: BIC within :data:`BIC_ATOL`."""
+    for key in ("baseline_fit", "final_model"):
+        assert host[key]["bic"] == pytest.approx(generic[key]["bic"], abs=BIC_ATOL), key
+    for a, b in zip(host["measurement_steps"] + host["steps"], generic["measurement_steps"] + generic["steps"]):
+        assert a["delta_bic"] == pytest.approx(b["delta_bic"], abs=2 * BIC_ATOL), a["effect"]
+
+
 def decisions(record: dict) -> dict:
     """What discovery decided, without the numbers that may differ by rounding."""
     return {"measurement": record["measurement"], "effects": record["effects"], "partial": record.get("partial", []),
@@ -73,10 +82,7 @@ def test_lab1_same_decisions_under_generic_and_host_code(tmp_path, caches):
     assert decisions(host) == decisions(generic), json.dumps([decisions(host), decisions(generic)], indent=1)
     # the offset is kept as a measurement by both
     assert "offset" in host["measurement"]
-    for key in ("baseline_fit", "final_model"):
-        assert host[key]["xi2"] == pytest.approx(generic[key]["xi2"], rel=XI2_RTOL), key
-    for a, b in zip(host["steps"] + host["measurement_steps"], generic["steps"] + generic["measurement_steps"]):
-        assert a["xi2_after"] == pytest.approx(b["xi2_after"], rel=XI2_RTOL), a["effect"]
+    _same_minima(host, generic)
 
 
 # one case of each kind the hidden-effect tests draw (their seeds): a zero offset (default suite), a hidden effect
@@ -104,4 +110,4 @@ def test_synthetic_same_decisions_under_generic_and_host_code(tmp_path, caches, 
     host = _discover(table, tmp_path / "host", caches[False], generic=False, columns="t,theta", config=config)
     generic = _discover(table, tmp_path / "generic", caches[True], generic=True, columns="t,theta", config=config)
     assert decisions(host) == decisions(generic), json.dumps([decisions(host), decisions(generic)], indent=1)
-    assert host["final_model"]["xi2"] == pytest.approx(generic["final_model"]["xi2"], rel=XI2_RTOL)
+    _same_minima(host, generic)
