@@ -27,6 +27,7 @@ import argparse
 import json
 import os
 import platform
+import signal
 import subprocess
 import sys
 import tempfile
@@ -62,7 +63,9 @@ def start_run(video: Path, out: Path, cache: Path) -> subprocess.Popen:
     """``pendtrack run VIDEO --out OUT -q`` in its own process, numba caching into ``cache``."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
     cmd = [str(Path(sys.executable).parent / "pendtrack"), "run", str(video), "--out", str(out), "-q", "--force"]
-    return subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # a session of its own, so the loader can be stopped with its worker processes (killpg)
+    return subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
 
 
 def finish(proc: subprocess.Popen, t0: float, out: Path, label: str) -> float:
@@ -120,7 +123,7 @@ def main(argv: list[str] | None = None) -> None:
             time.sleep(5.0)  # the loader is past its imports and tracking its video
             t0 = time.perf_counter()
             walls[label] = finish(start_run(video, out, numba_cache), t0, out, label)
-            load.kill()
+            os.killpg(load.pid, signal.SIGKILL)  # the loader and its worker processes
             load.wait()
         cold = runs["first run (empty cache)"]
         for label, out in runs.items():
