@@ -139,4 +139,10 @@ def test_video_with_memory_is_discovered(rendered_run, tmp_path):
     assert res.exit_code == 0, res.output
     record = json.loads((out / "discovery.json").read_text())
     assert (out / "angle.parquet").is_file()  # the video stages ran into the folder
-    assert record["effects"][:1] == ["memory"], json.dumps(record["runners_up"], indent=1)[:3000]
+    # memory is the first effect kept; it is named the cause only when the final model leaves no structure the
+    # catalogue cannot remove -- on a tracked video the residual's colour (whiteness, excess rms) usually stays,
+    # and the effect is then listed as improving the fit (``partial``), with what stays unexplained
+    kept = record["effects"] or record["partial"]
+    assert kept[:1] == ["memory"], json.dumps(record["runners_up"], indent=1)[:3000]
+    assert not (record["effects"] and record["partial"])
+    assert not record["effects"] or not record["unexplained"]  # a cause is named only when nothing stays off
