@@ -21,7 +21,6 @@ from pendtrack.config import Config
 from pendtrack.fitting.models_fit import fits_offset
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.fit import fit_stage
-from pendtrack.stages.kinematics import zero_reference
 from pendtrack.tables import read_record
 
 STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
@@ -53,10 +52,10 @@ def test_zero_reference_of_each_kind_of_input(tmp_path):
     t, theta = _theta()
     table = tmp_path / "lab.txt"
     np.savetxt(table, np.column_stack([t, theta]))
-    assert zero_reference(read_record(table)) == "table"
-    assert zero_reference(read_record(_angle(tmp_path / "v.parquet", "vertical"))) == "vertical"
-    assert zero_reference(read_record(_angle(tmp_path / "r.parquet", "rest"))) == "rest"
-    assert zero_reference(read_record(_angle(tmp_path / "u.parquet", None))) == "unknown"
+    assert read_record(table).zero_reference == "table"
+    assert read_record(_angle(tmp_path / "v.parquet", "vertical")).zero_reference == "vertical"
+    assert read_record(_angle(tmp_path / "r.parquet", "rest")).zero_reference == "rest"
+    assert read_record(_angle(tmp_path / "u.parquet", None)).zero_reference == "unknown"
 
 
 @pytest.fixture(scope="module")

@@ -100,7 +100,7 @@ def read_record(path: str | Path, *, columns: str | tuple[str, ...] | None = Non
         t [s], theta [rad], ok (and omega, alpha of a kinematics artifact); ``.attrs["provenance"]``
         records how the file was read and where theta's zero comes from.
     """
-    from pendtrack.stages.kinematics import read_input, zero_reference
+    from pendtrack.stages.kinematics import read_input
     from pendtrack.tables import TableSpec, parse_columns
 
     cols = parse_columns(columns) if isinstance(columns, str) else columns
@@ -109,7 +109,7 @@ def read_record(path: str | Path, *, columns: str | tuple[str, ...] | None = Non
     frame = pd.DataFrame({"t": rec.t, "theta": rec.theta, **rec.columns, "ok": rec.ok})
     if rec.kind == "kinematics" and rec.provenance is not None:
         return to_frame(Artifact(frame, rec.provenance, rec.source), "kinematics")
-    prov = Provenance(stage="read_record", extra={"zero_reference": zero_reference(rec), "input": rec.info})
+    prov = Provenance(stage="read_record", extra={"zero_reference": rec.zero_reference, "input": rec.info})
     frame = frame[["t", "theta", "ok"]]
     return to_frame(Artifact(frame, prov, rec.source), "angle")
 

@@ -3,60 +3,26 @@
 The input is anything :func:`pendtrack.tables.read_record` reads (angle.parquet, a Parquet file
 or a CSV/whitespace table of t, theta or t, x, y), read here by :func:`read_input`, the reader
 `fit` and `discover` share: x, y columns without ``--pivot`` get the pivot from a robust circle
-fit of their path (:func:`fitted_pivot`). :func:`kinematics_input` is what `fit` reads: a
+fit of their path (:func:`pendtrack.track.pivot.fitted_pivot`). :func:`kinematics_input` is what `fit` reads: a
 kinematics artifact as it is, or this stage's derivatives of any other record, in memory.
 """
 
 from __future__ import annotations
 
-import logging
-import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from pendtrack.artifacts import SCHEMAS, Artifact, Provenance, inputs_for, read_metadata, write_artifact
 from pendtrack.config import Config
 from pendtrack.errors import ArtifactError
-from pendtrack.kinematics import KinematicsError, KinematicsResult, analyse, omega0_from_kinematics, savgol_kinematics
+from pendtrack.kinematics.record import differentiate_record, kinematic_columns, kinematics_table
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.tables import Record, TableSpec, read_record
-
-log = logging.getLogger(__name__)
+from pendtrack.track.pivot import fitted_pivot
 
 FILENAME = SCHEMAS["kinematics"].filename
-MIN_ARC_RAD = 0.1  # a path spanning less arc (~6 deg) does not locate its pivot: --pivot is needed
-
-
-def fitted_pivot(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], dict[str, Any]]:
-    """The pivot of an x, y path: the centre of a robust circle fit (:func:`pendtrack.track.fit_circle`).
-
-    Parameters
-    ----------
-    x, y : ndarray
-        Positions (any length unit).
-
-    Returns
-    -------
-    (px, py), facts
-        The centre, and ``radius``, ``rms`` (radial residual) and ``arc_deg`` for the provenance.
-
-    Raises
-    ------
-    ArtifactError
-        The path covers too little arc (below :data:`MIN_ARC_RAD`) to locate the centre.
-    """
-    from pendtrack.track.circle import fit_circle
-
-    scale = float(np.hypot(np.ptp(x), np.ptp(y))) if x.size else 0.0
-    fit = fit_circle(x, y, f_scale=max(0.01 * scale, 1e-12)) if x.size >= 3 and scale > 0 else None
-    if fit is None or fit.arc_span < MIN_ARC_RAD:
-        span = 0.0 if fit is None else math.degrees(fit.arc_span)
-        raise ArtifactError(f"the x, y path spans {span:.2g} deg of arc, too little to fit its pivot: "
-                            "give --pivot X Y")
-    return (fit.xc, fit.yc), {"radius": fit.radius, "rms": fit.rms, "arc_deg": math.degrees(fit.arc_span)}
 
 
 def read_input(path: str | Path, *, table: TableSpec | None = None, min_samples: int = 0,
@@ -71,36 +37,9 @@ def read_input(path: str | Path, *, table: TableSpec | None = None, min_samples:
         raise
 
 
-# Where a record's zero of theta comes from (:func:`zero_reference`): a measured rest or the renderer's
-# truth ("rest", "truth"), the image vertical ("vertical"), a plain table's own convention ("table"),
-# or not recorded ("unknown", e.g. an artifact written by a test or an older version). The fit reads
-# it (pendtrack.fitting.models_fit.ZERO_NOT_MEASURED).
-
-
-def zero_reference(rec: Record) -> str:
-    """Where the zero of ``rec``'s theta comes from: an artifact's ``zero_reference`` (angle.parquet,
-    passed on by kinematics.parquet), ``"truth"`` for truth.parquet, ``"table"`` for a plain table
-    or Parquet file, ``"unknown"`` if an artifact does not say."""
-    if rec.kind == "truth":
-        return "truth"
-    if rec.kind in ("angle", "kinematics"):
-        value = ((rec.provenance.extra or {}) if rec.provenance is not None else {}).get("zero_reference")
-        return value if isinstance(value, str) and value else "unknown"
-    return "table"
-
-
 def table_sections(table: TableSpec | None) -> dict[str, Any]:
     """What a stage adds to its provenance config for ``--columns``/``--pivot`` (nothing by default)."""
     return {} if table is None or table.default else {"table": table.to_dict()}
-
-
-def _differentiate(rec: Record, config: Config) -> KinematicsResult:
-    kc = config.kinematics
-    try:
-        return savgol_kinematics(rec.t, rec.theta, rec.ok, window_s=kc.savgol_window_s, order=kc.savgol_order,
-                                 max_gap_s=kc.max_gap_s, min_segment_s=kc.min_segment_s)
-    except KinematicsError as exc:
-        raise KinematicsError(str(exc), path=rec.source) from None
 
 
 def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | None = None
@@ -120,7 +59,7 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     -------
     artifact : Artifact
         Columns t, theta, omega, alpha, ok (segment); provenance with the Savitzky-Golay facts
-        (``window_points``, ``order``, ``h``) and ``zero_reference`` (:func:`zero_reference`).
+        (``window_points``, ``order``, ``h``) and ``zero_reference`` (:attr:`pendtrack.tables.Record.zero_reference`).
     sections : dict
         To add to the consumer's provenance config: ``kinematics`` (when computed here),
         ``input`` (how it was read, when it was not a kinematics artifact used as it is) and
@@ -133,12 +72,11 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
         if rec.info["resampled"] is not None:
             sections["input"] = rec.info
         return Artifact(frame, rec.provenance or Provenance(stage="kinematics"), rec.source), sections
-    kin = _differentiate(rec, config)
-    frame = pd.DataFrame({"t": kin.t, "theta": kin.theta, "omega": kin.omega, "alpha": kin.alpha, "ok": kin.ok,
-                          "segment": kin.segment})
+    kin = differentiate_record(rec.t, rec.theta, rec.ok, options=config.kinematics, source=rec.source)
+    frame = kinematic_columns(kin)
     sections |= {**config.sections("kinematics"), "input": rec.info}
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
-                      extra={**kin.info, "zero_reference": zero_reference(rec)})
+                      extra={**kin.info, "zero_reference": rec.zero_reference})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -173,7 +111,7 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         ``window_clipped``, ``n_segments``, ``n_dropped_segments``, ``n_bridged``,
         ``resampled``, ``ok_fraction``; ``input``: how the file was read (columns, pivot,
         ``resampled`` grid, ``warnings``); ``zero_reference``: where theta's zero comes from
-        (:func:`zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured).
+        (:attr:`pendtrack.tables.Record.zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured).
 
     Raises
     ------
@@ -193,28 +131,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
     if up_to_date((out,), "kinematics", inputs=inputs, config=sections, force=force):
         record = read_metadata(out) or {}
         return StageOutput((out,), skipped=True, facts=dict(record.get("extra", {})))
-    kin = _differentiate(rec, config)
-    ana = analyse(kin)
-    raw = omega0_from_kinematics(kin, correct_smoothing=False) if ana.omega0 is not None else None
-    if ana.omega0 is None:
-        log.warning("%s: no model-free Omega0 (%s); analysis columns left out", angle, ana.reason)
-    frame = pd.DataFrame({"t": kin.t, "theta": kin.theta, "omega": kin.omega, "alpha": kin.alpha,
-                          "ok": kin.ok, "segment": kin.segment})
-    for name, values in ana.columns.items():
-        frame[name] = values
-    facts: dict[str, Any] = {
-        "Omega0": None if ana.omega0 is None else ana.omega0.omega0,
-        "Omega0_stderr": None if ana.omega0 is None else ana.omega0.stderr,
-        "Omega0_raw": None if raw is None else raw.omega0,
-        "Omega0_reason": ana.reason,
-        "n_turning_points": len(ana.turning),
-        "negative_damping_fraction": None if math.isnan(ana.negative_damping_fraction)
-        else ana.negative_damping_fraction,
-        "ok_fraction": float(np.mean(kin.ok)) if kin.ok.size else 0.0,
-        **kin.info,
-        "input": rec.info,
-        "zero_reference": zero_reference(rec),
-    }
-    write_artifact(frame, out, "kinematics",
+    result = kinematics_table(rec.t, rec.theta, rec.ok, options=config.kinematics, source=angle)
+    facts = {**result.facts, "input": rec.info, "zero_reference": rec.zero_reference}
+    write_artifact(result.frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))
     return StageOutput((out,), facts=facts)

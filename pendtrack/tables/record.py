@@ -113,6 +113,20 @@ class Record:
         """The warnings raised while reading (also logged)."""
         return tuple(self.info.get("warnings", ()))
 
+    @property
+    def zero_reference(self) -> str:
+        """Where theta's zero comes from: an artifact's ``zero_reference`` (angle.parquet, passed on by
+        kinematics.parquet: a measured rest ``"rest"``, the image vertical ``"vertical"``),
+        ``"truth"`` for truth.parquet, ``"table"`` for a plain table or Parquet file (its own
+        convention), ``"unknown"`` if an artifact does not say. The fit reads it
+        (:data:`pendtrack.fitting.models_fit.ZERO_NOT_MEASURED`)."""
+        if self.kind == "truth":
+            return "truth"
+        if self.kind in ("angle", "kinematics"):
+            value = ((self.provenance.extra or {}) if self.provenance is not None else {}).get("zero_reference")
+            return value if isinstance(value, str) and value else "unknown"
+        return "table"
+
 
 def is_video(path: str | Path) -> bool:
     """True if ``path`` looks like a video file (by its suffix)."""
