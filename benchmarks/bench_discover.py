@@ -22,7 +22,7 @@ def main(case: str = "pair") -> None:
 
     from pendtrack.config import Config
     from pendtrack.discovery.inputs import AngleSeries
-    from pendtrack.discovery.search import discover
+    from pendtrack.discovery.loop import discover
     from pendtrack.discovery.synthetic import simulate_run
 
     params = {"Omega0": 5.6, "C1": 0.02, "C0": 0.012, "C2": 0.004, "G2": 0.008, "beta": 0.5, "p_f": 1.5}

@@ -48,7 +48,7 @@ import pytest
 
 from pendtrack.config import Config
 from pendtrack.discovery.inputs import AngleSeries
-from pendtrack.discovery.search import discover
+from pendtrack.discovery.loop import discover
 from pendtrack.discovery.synthetic import ARTEFACTS, HIDDEN_EFFECTS, HIDDEN_PAIRS, draw_run
 
 BASE_SEED = int(os.environ.get("PENDTRACK_DISCOVER_SEED", "20250"))

@@ -311,7 +311,7 @@ def test_equivalents_are_models_of_the_same_size_within_the_keep_threshold():
 def test_combinations_come_from_the_best_singles_by_heldout_gain():
     from types import SimpleNamespace
 
-    from pendtrack.discovery.search import _combinations
+    from pendtrack.discovery.loop import _combinations
 
     def cand(name, gain, error=""):
         return SimpleNamespace(effect=name, heldout_gain=gain, error=error)

@@ -165,7 +165,7 @@ def test_kinematics_fit_and_discover_agree_on_every_form(tmp_path, form, referen
         seen["series"] = series
         raise Stop
 
-    import pendtrack.discovery.search as search
+    import pendtrack.discovery.loop as search
 
     monkeypatch.setattr(search, "discover", capture)
     from pendtrack.stages.discover import discover_stage

@@ -12,8 +12,8 @@ Modules: :mod:`~pendtrack.discovery.inputs` (readers), :mod:`~pendtrack.discover
 :mod:`~pendtrack.discovery.cycles`, :mod:`~pendtrack.discovery.hysteresis` and
 :mod:`~pendtrack.discovery.diagnostics` (what is wrong, in numbers),
 :mod:`~pendtrack.discovery.catalogue` (effects and signatures),
-:mod:`~pendtrack.discovery.selection` (fits and the decision rule),
-:mod:`~pendtrack.discovery.search` (the loop), :mod:`~pendtrack.discovery.narrative`
+:mod:`~pendtrack.discovery.candidate_fits` (the candidates' fits), :mod:`~pendtrack.discovery.rules` (the decision rule),
+:mod:`~pendtrack.discovery.loop` (the loop, a state object), :mod:`~pendtrack.discovery.narrative`
 (discovery.md), :mod:`~pendtrack.discovery.result`.
 
 Importing this package loads numpy only: fitting, models and numba are imported on use.
@@ -33,7 +33,7 @@ _LAZY = {
     "Diagnosis": ("pendtrack.discovery.diagnostics", "Diagnosis"),
     "diagnose": ("pendtrack.discovery.diagnostics", "diagnose"),
     "DiscoveryResult": ("pendtrack.discovery.result", "DiscoveryResult"),
-    "discover": ("pendtrack.discovery.search", "discover"),
+    "discover": ("pendtrack.discovery.loop", "discover"),
     "write_markdown": ("pendtrack.discovery.narrative", "write_markdown"),
 }
 

@@ -21,7 +21,7 @@ coulomb, quadratic_drag    amplitude, without dephasing or hysteresis.
 
 Signatures only *rank* the candidates (which to try first, what the narrative says); the
 decision to keep an effect is made by held-out error and BIC in
-:mod:`pendtrack.discovery.selection`.
+:mod:`pendtrack.discovery.rules`.
 """
 
 from __future__ import annotations

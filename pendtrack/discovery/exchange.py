@@ -1,9 +1,9 @@
 """Exchange steps of discovery: is a kept term still needed, would another do better in its place?
 
-Forward selection (:func:`pendtrack.discovery.search.discover`) keeps one term per round, the
+Forward selection (:func:`pendtrack.discovery.loop.discover`) keeps one term per round, the
 one that earns its keep with the lowest BIC. A flexible term kept early can stand in for
 others, so three exchange steps judge the kept set again, each by the held-out and BIC rules
-of :mod:`pendtrack.discovery.selection`:
+of :mod:`pendtrack.discovery.rules`:
 
 * :func:`recheck`: does a kept term still earn its keep in the current model?
 * :func:`replace_earlier`: would another effect do better in the place of one kept earlier?
@@ -25,10 +25,10 @@ from pendtrack.config import Config
 from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.interleaved import interleaved_test
 from pendtrack.discovery.result import Candidate
-from pendtrack.discovery.selection import (
-    FitPair, FitTask, fit_full, fit_pair, fit_train, full_start, judge, judge_heldout, passes_heldout, rule_margins,
-    run_tasks, warm_start,
+from pendtrack.discovery.candidate_fits import (
+    FitPair, FitTask, fit_full, fit_pair, fit_train, full_start, run_tasks, warm_start,
 )
+from pendtrack.discovery.rules import judge, judge_heldout, passes_heldout, rule_margins
 from pendtrack.discovery.starts import scaled_starts
 
 

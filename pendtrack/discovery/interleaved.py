@@ -3,7 +3,7 @@
 A measurement term (theta's zero offset, an angle-scale error) shifts every sample of the
 record, early and late alike. Judging it by how a training fit on the first part of the
 record extrapolates into the rest (the effects' held-out test,
-:mod:`pendtrack.discovery.selection`) mixes it with the baseline's dephasing, which grows
+:mod:`pendtrack.discovery.rules`) mixes it with the baseline's dephasing, which grows
 with time: on lab1 the baseline's held-out error is 20.7 mrad of dephasing against a 10 mrad
 offset, and whether the offset's held-out z came out 0.7 or 4 turned on the rounding of
 the physics fits. This test asks instead whether the term, estimated on one half of the

@@ -75,7 +75,7 @@ def effective_n(r: np.ndarray, *, max_lag: int | None = None) -> float:
 def heldout_test(theta: np.ndarray, pred_a: np.ndarray, pred_b: np.ndarray) -> tuple[float, float]:
     """Test-sample RMS gain of prediction ``b`` over ``a`` and its z against noise.
 
-    The statistic of :mod:`pendtrack.discovery.selection`'s held-out rule (its docstring derives
+    The statistic of :mod:`pendtrack.discovery.rules`'s held-out rule (its docstring derives
     it) and of the interleaved folds (:mod:`pendtrack.discovery.interleaved`).
 
     Parameters

@@ -111,7 +111,7 @@ class Candidate:
     heldout_gain : float
         Held-out RMS of the current model minus this one's [rad] (> 0: better).
     heldout_z : float
-        That gain in mean squares over what noise alone would give (see selection) [1].
+        That gain in mean squares over what noise alone would give (see :mod:`pendtrack.discovery.rules`) [1].
     delta_bic : float
         BIC of this model minus the current model's, whole record [1].
     passes_bic, passes_heldout : bool

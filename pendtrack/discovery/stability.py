@@ -1,7 +1,7 @@
 """How stable a keep/drop decision is: the share of block-bootstrap records that decide alike.
 
 In the spirit of ensemble-SINDy's inclusion probabilities: a decision of
-:mod:`pendtrack.discovery.selection` is re-made on :data:`N_RESAMPLES` records resampled from
+:mod:`pendtrack.discovery.rules` is re-made on :data:`N_RESAMPLES` records resampled from
 the one measured, and its *stability* is the share of them that make the same decision.
 Resampling refits nothing: the two models being compared (current and candidate) are
 held at their fits, and their residuals are resampled together, by circular blocks as long
@@ -60,7 +60,7 @@ def _block_length(residual: np.ndarray) -> int:
 
 def _test_passes(theta: np.ndarray, a: np.ndarray, b: np.ndarray, rms_ref: float, rules: Rules,
                  idx: np.ndarray) -> np.ndarray:
-    """The test of :func:`~pendtrack.discovery.selection.passes_heldout` on each resample."""
+    """The test of :func:`~pendtrack.discovery.rules.passes_heldout` on each resample."""
     e_a, e_b, d = theta - a, theta - b, b - a
     n_eff = effective_n(e_b)
     ms_a = np.mean(e_a[idx] ** 2, axis=1)

@@ -199,7 +199,7 @@ def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
     from pendtrack.config import Config
     from pendtrack.discovery.data import prepare
     from pendtrack.discovery.inputs import AngleSeries
-    from pendtrack.discovery.selection import FitTask, fit_pair
+    from pendtrack.discovery.candidate_fits import FitTask, fit_pair
 
     cfg = Config()
     data = prepare(AngleSeries(t, theta, source="synthetic", kind="table"),  # type: ignore[arg-type]

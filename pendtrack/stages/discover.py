@@ -83,7 +83,7 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
     from pendtrack.discovery import catalogue
     from pendtrack.discovery.inputs import MIN_SAMPLES, series_from_record
     from pendtrack.discovery.narrative import write_markdown
-    from pendtrack.discovery.search import discover
+    from pendtrack.discovery.loop import discover
 
     source = Path(source)
     out_dir = Path(out_dir)
