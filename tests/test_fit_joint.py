@@ -170,3 +170,18 @@ def test_one_record_with_sharing_flags_is_an_error(runs, tmp_path):
 def test_a_record_given_twice_is_an_error(runs, tmp_path):
     res = CliRunner().invoke(cli, ["fit", runs[0], runs[0], "--model", "standard", "-q", "--out", str(tmp_path)])
     assert res.exit_code == 2 and "given twice" in res.output and not (tmp_path / "fit.json").exists()
+
+
+def test_batch_joint_fits_the_runs_of_a_batch_folder(runs, tmp_path):
+    # a batch folder holds DIR/<run id>/kinematics.parquet; `batch --joint` fits them into DIR/joint/
+    from pathlib import Path
+
+    from pendtrack.stages.series import batch_joint_fit
+
+    batch_dir = Path(runs[0]).parent.parent
+    config = Config().replace("fit", n_starts=3, workers=1, profile=False, joint_starts=2)
+    res = batch_joint_fit(batch_dir, ["03na1", "06na2"], config=config, models=("standard",))
+    rec = read_json_artifact(batch_dir / "joint" / "fit_standard.json", required=FIT_JSON_KEYS)
+    assert res.facts["runs"] == ["03na1", "06na2"] and set(rec["runs"]) == {"03na1", "06na2"}
+    with pytest.raises(FitError, match="at least two runs"):
+        batch_joint_fit(batch_dir, ["03na1"], config=config, models=("standard",))

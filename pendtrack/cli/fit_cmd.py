@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import click
@@ -83,9 +84,14 @@ def fit(kinematics_files: tuple[str, ...], models: tuple[str, ...], cost: str | 
     kinematics_file = kinematics_files[0]
     res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
                     table=table_spec(columns, pivot, track), force=common.force, progress=common.progress)
+    finish(res, echo_fit_summary)
+
+
+def finish(res: Any, summary: Callable[[dict[str, Any]], None]) -> None:
+    """A fit stage's output on the terminal (up to date, the summary, the files written), then the exit rule."""
     if res.skipped:
         click.echo(f"{res.path} is up to date")
-    echo_fit_summary(res.facts)
+    summary(res.facts)
     if not res.skipped:
         click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
     exit_on_fit_problems(res.facts)
@@ -111,12 +117,7 @@ def fit_series(files: tuple[str, ...], *, config: Any, models: tuple[str, ...], 
 
     res = series_fit_stage(files, out_dir=common.out, config=config, models=models or None, sharing=sharing,
                            table=table, force=common.force)
-    if res.skipped:
-        click.echo(f"{res.path} is up to date")
-    echo_series_summary(res.facts)
-    if not res.skipped:
-        click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
-    exit_on_fit_problems(res.facts)
+    finish(res, echo_series_summary)
 
 
 def echo_series_summary(facts: dict[str, Any]) -> None:
