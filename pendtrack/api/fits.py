@@ -161,7 +161,8 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
     record : DataFrame, sequence or mapping
         From :func:`kinematics`, or any record :func:`read_record` or :func:`angle` gives
         (differentiated with ``[kinematics]`` first, as the CLI does). Several records (a list of
-        paths or DataFrames, or a mapping run id -> path or DataFrame, e.g. ``{"06na5": df}``) are
+        paths or DataFrames, or a mapping run id -> DataFrame, e.g. ``{"06na5": df}``; a path is named by its
+        own file or folder, a DataFrame of a list ``run1``, ``run2``, ...) are
         fitted jointly (:func:`pendtrack.stages.series.series_fit_stage`): each :class:`ModelFit`'s
         record is then the joint ``fit_<model>.json`` and its curves are empty.
     shared, per_run : sequence of str
