@@ -159,6 +159,9 @@ class FitConfig:
     # change (C4/(t_ref - t0), 1/(t_ref - t0)) (pendtrack.fitting.leastsq.coordinates); "natural" = the model's
     # parameters. Only the steps' path changes: every value is reported in the model's parameters
     coordinates: str = "decorrelated"
+    # a joint fit of several records (pendtrack.fitting.joint): seeded random starts drawn within the spread of
+    # the runs' own fits, after the data-derived ones (the pooled values, then each run's own values)
+    joint_starts: int = 4
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -369,6 +372,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.seed": (_ge(0),),
     "fit.bootstrap": (_ge(0),),
     "fit.start_budget": (_ge(1),),
+    "fit.joint_starts": (_ge(0),),
     "fit.ladder_growth": (_gt(1),),
     "fit.ladder_growth_memory": (_gt(1),),
     "fit.hopeless_ratio": (_ge(0),),

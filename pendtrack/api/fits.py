@@ -149,16 +149,26 @@ def fitset_from_run(run: Any) -> FitSet | None:
     return FitSet(fits, combined)
 
 
-def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, config: Config | str | Path | None = None,
-        out: str | Path | None = None, progress: bool = False, **options: Any) -> FitSet:
+def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | Sequence[str] | None = None, *,
+        config: Config | str | Path | None = None, out: str | Path | None = None, progress: bool = False,
+        shared: Sequence[str] = (), per_run: Sequence[str] = (), per_group: Mapping[str, str] | None = None,
+        **options: Any) -> FitSet:
     """Fit models to a record: :func:`pendtrack.fitting.models_fit.fit_models`, as ``pendtrack fit`` calls it
-    (the same fits to the last digit).
+    (the same fits to the last digit); or jointly to several records, as ``pendtrack fit RUN1 RUN2 ...``.
 
     Parameters
     ----------
-    record : DataFrame
+    record : DataFrame, sequence or mapping
         From :func:`kinematics`, or any record :func:`read_record` or :func:`angle` gives
-        (differentiated with ``[kinematics]`` first, as the CLI does).
+        (differentiated with ``[kinematics]`` first, as the CLI does). Several records (a list of
+        paths or DataFrames, or a mapping run id -> DataFrame, e.g. ``{"06na5": df}``; a path is named by its
+        own file or folder, a DataFrame of a list ``run1``, ``run2``, ...) are
+        fitted jointly (:func:`pendtrack.stages.series.series_fit_stage`): each :class:`ModelFit`'s
+        record is then the joint ``fit_<model>.json`` and its curves are empty.
+    shared, per_run : sequence of str
+        Several records: parameters shared by every run, or fitted per run (``--shared``, ``--per-run``).
+    per_group : mapping, optional
+        Several records: parameter -> run-code fields, e.g. ``{"Ca": "tile+alley"}`` (``--per-group``).
     models : str or sequence of str, optional
         As ``--model`` (``"classic"``, ``"standard+memory"``); default ``[fit] models``.
     config : Config, path or None
@@ -182,6 +192,15 @@ def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, conf
     cfg = configure(config, options, FIT, what="pt.fit")
     names = (models,) if isinstance(models, str) else tuple(models or cfg.fit.models)
     check_models(names, source="pt.fit")
+    if not isinstance(record, pd.DataFrame):
+        from pendtrack.fitting.joint import sharing_from_lists
+
+        sharing = sharing_from_lists(shared=shared, per_run=per_run, per_group=per_group)
+        return _fit_series(record, names, config=cfg, out=out, sharing=sharing)
+    if shared or per_run or per_group:
+        from pendtrack.errors import FitError
+
+        raise FitError("pt.fit: shared, per_run and per_group need several records")
     with staged(record, what="pt.fit") as src:  # read as the CLI's stage reads its file
         art, input_sections = kinematics_input(src, config=cfg)
         inputs = inputs_for(src)
@@ -194,3 +213,29 @@ def fit(record: pd.DataFrame, models: str | Sequence[str] | None = None, *, conf
     order = sorted(fits.records, key=lambda n: fits.files[n])  # as pt.load reads a folder: by file name
     return FitSet({n: ModelFit(n, as_written(fits.records[n], prov), curves[curves["model"] == n].reset_index(drop=True))
                    for n in order}, as_written(fits.combined, prov))
+
+
+def _fit_series(records: Sequence[Any] | Mapping[str, Any], names: tuple[str, ...], *, config: Config,
+                out: str | Path | None, sharing: Mapping[str, str]) -> FitSet:
+    """The joint fit of several records (paths or DataFrames; a DataFrame is staged in a folder named by its run id)."""
+    import tempfile
+
+    from pendtrack.api.frames import write_frame
+    from pendtrack.artifacts import read_json_artifact
+    from pendtrack.stages.series import series_fit_stage
+
+    items = list(records.items()) if isinstance(records, Mapping) else [(None, r) for r in records]
+    with tempfile.TemporaryDirectory(prefix="pendtrack-") as scratch, workdir(out) as folder:
+        paths = []
+        for i, (run, rec) in enumerate(items):
+            if isinstance(rec, pd.DataFrame):
+                sub = Path(scratch) / str(run or f"run{i + 1}")
+                sub.mkdir(parents=True, exist_ok=True)
+                paths.append(write_frame(rec, sub, what="pt.fit"))
+            else:
+                paths.append(Path(rec))
+        res = series_fit_stage(paths, out_dir=folder, config=config, models=names, sharing=sharing, force=True)
+        combined = read_json_artifact(res.paths[0], required=())
+        fits = {n: ModelFit(n, read_json_artifact(folder / res.facts["files"][n], required=()), pd.DataFrame())
+                for n in names}
+    return FitSet(fits, combined)

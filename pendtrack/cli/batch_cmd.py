@@ -7,6 +7,7 @@ import sys
 import click
 
 from pendtrack.cli.common import CommonArgs, common_options
+from pendtrack.cli.fit_cmd import echo_series_summary, exit_on_fit_problems, sharing_option, sharing_options
 
 
 def _split_models(values: tuple[str, ...]) -> tuple[str, ...]:
@@ -22,8 +23,13 @@ def _split_models(values: tuple[str, ...]) -> tuple[str, ...]:
 @click.option("--workers", type=click.IntRange(min=0), default=None,
               help="Local worker processes (0 = all cores); default: the config's [batch] workers.")
 @click.option("--discover", is_flag=True, help="Also run model discovery on every run.")
+@click.option("--joint", is_flag=True,
+              help="Then fit each model jointly to every run that succeeded -> OUT/joint/fit_<model>.json "
+                   "(scopes from the run codes; --shared, --per-run, --per-group override them).")
+@sharing_options
 @common_options(default_out="results")
 def batch(folder: str, models: tuple[str, ...], scheduler: str | None, workers: int | None, discover: bool,
+          joint: bool, shared: tuple[str, ...], per_run: tuple[str, ...], per_group: tuple[str, ...],
           common: CommonArgs) -> None:
     """Run the whole pipeline on every run-coded video of FOLDER into OUT/<run code>/.
 
@@ -36,6 +42,9 @@ def batch(folder: str, models: tuple[str, ...], scheduler: str | None, workers: 
     """
     from pendtrack.stages.batch import batch_stage
 
+    sharing = sharing_option(shared=shared, per_run=per_run, per_group=per_group)
+    if sharing and not joint:
+        raise click.UsageError("--shared, --per-run and --per-group need --joint")
     result = batch_stage(folder, out_dir=common.out, config=common.config, models=_split_models(models) or None,
                          scheduler=scheduler, workers=workers, discover=discover, force=common.force,
                          progress=common.progress)
@@ -53,8 +62,18 @@ def batch(folder: str, models: tuple[str, ...], scheduler: str | None, workers: 
     else:
         click.echo(f"two-cuboid fit: {tc.get('status')}{': ' + tc['reason'] if tc.get('reason') else ''}")
     click.echo(f"summary in {result.summary} and {result.summary_csv}; {result.batch_json}")
+    if joint:
+        from pendtrack.stages.series import batch_joint_fit
+
+        res = batch_joint_fit(result.out_dir, [r.run_id for r in result.runs if r.status == "ok"],
+                              config=common.config, models=_split_models(models) or None, sharing=sharing,
+                              force=common.force)
+        echo_series_summary(res.facts)
+        click.echo(f"joint fit in {res.path}")
     if result.failed:
         sys.exit(1)
+    if joint:
+        exit_on_fit_problems(res.facts)
 
 
 def _two_cuboid_text(tc: dict) -> str:

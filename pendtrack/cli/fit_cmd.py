@@ -1,13 +1,14 @@
-"""`pendtrack fit KINEMATICS --model NAME [--model NAME2 ...] --out DIR`."""
+"""`pendtrack fit KINEMATICS [KINEMATICS2 ...] --model NAME [--model NAME2 ...] [--shared ...] --out DIR`."""
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import click
 
-from pendtrack.cli.common import CommonArgs, apply_flags, common_options
+from pendtrack.cli.common import F, CommonArgs, _stack, apply_flags, common_options
 from pendtrack.cli.kinematics_cmd import table_options, table_spec
 
 
@@ -15,8 +16,26 @@ def _fmt(x: Any, spec: str) -> str:
     return "n/a" if x is None else format(x, spec)
 
 
+def _names(values: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(n.strip() for v in values for n in v.split(",") if n.strip())
+
+
+def sharing_options(fn: F) -> F:
+    """``--shared``, ``--per-run``, ``--per-group`` (a joint fit's scopes): keywords ``shared, per_run, per_group``."""
+    return _stack(fn, [
+        click.option("--shared", multiple=True, metavar="NAMES",
+                     help="Several records: parameters shared by every run (comma-separated, e.g. C0,Omega0)."),
+        click.option("--per-run", "per_run", multiple=True, metavar="NAMES",
+                     help="Several records: parameters fitted per run (comma-separated)."),
+        click.option("--per-group", "per_group", multiple=True, metavar="NAME=FIELDS",
+                     help="Several records: a parameter fitted per group of runs with equal run-code fields "
+                          "(tile, launched, alley joined by +), e.g. Ca=tile+alley. Repeat for several."),
+    ])
+
+
 @click.command("fit")
-@click.argument("kinematics_file", metavar="KINEMATICS", type=click.Path(dir_okay=False))
+@click.argument("kinematics_files", metavar="KINEMATICS...", nargs=-1, required=True,
+                type=click.Path(dir_okay=False))
 @table_options
 @click.option("--model", "models", multiple=True,
               help="Model to fit (repeat for several): standard, classic, opa, fractional, inertial, or a "
@@ -27,11 +46,19 @@ def _fmt(x: Any, spec: str) -> str:
 @click.option("--starts", "n_starts", type=int, default=None, help="Number of random starts (paper: 150).")
 @click.option("--seed", type=int, default=None, help="Seed of the start draws.")
 @click.option("--workers", type=int, default=None, help="Processes for the starts; 0 = all cores.")
+@sharing_options
 @common_options()
-def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_starts: int | None, seed: int | None,
-        workers: int | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None, track: str | None,
-        common: CommonArgs) -> None:
+def fit(kinematics_files: tuple[str, ...], models: tuple[str, ...], cost: str | None, n_starts: int | None,
+        seed: int | None, workers: int | None, shared: tuple[str, ...], per_run: tuple[str, ...],
+        per_group: tuple[str, ...], columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
+        track: str | None, common: CommonArgs) -> None:
     """Fit physical models to KINEMATICS -> OUT/fit.json, fit_<model>.json, fit.parquet.
+
+    Several records (runs of one pendulum) are fitted jointly: OUT/fit_<model>.json holds the
+    shared values, each group's and each run's values and each run's residual. Defaults follow
+    the run codes in the records' names or folders (06na5): Omega0 per tile, C0 shared, drag and
+    added mass per tile and alley, the initial state and theta_off per run; without run codes
+    the physical parameters are shared. --shared, --per-run and --per-group override them.
 
     KINEMATICS is kinematics.parquet, or anything `pendtrack kinematics` reads (angle.parquet,
     a Parquet file or a CSV/whitespace table of t, theta or t, x, y), differentiated first with
@@ -47,14 +74,60 @@ def fit(kinematics_file: str, models: tuple[str, ...], cost: str | None, n_start
 
     values = {"cost": cost, "n_starts": n_starts, "seed": seed, "workers": workers}
     config = apply_flags(common.config, "fit", **values)
+    sharing = sharing_option(shared=shared, per_run=per_run, per_group=per_group)
+    if len(kinematics_files) > 1:
+        fit_series(kinematics_files, config=config, models=models, sharing=sharing, common=common,
+                   table=table_spec(columns, pivot, track))
+        return
+    if sharing:
+        raise click.UsageError("--shared, --per-run and --per-group need several records")
+    kinematics_file = kinematics_files[0]
     res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
                     table=table_spec(columns, pivot, track), force=common.force, progress=common.progress)
+    finish(res, echo_fit_summary)
+
+
+def finish(res: Any, summary: Callable[[dict[str, Any]], None]) -> None:
+    """A fit stage's output on the terminal (up to date, the summary, the files written), then the exit rule."""
     if res.skipped:
         click.echo(f"{res.path} is up to date")
-    echo_fit_summary(res.facts)
+    summary(res.facts)
     if not res.skipped:
         click.echo(f"wrote {', '.join(str(p) for p in res.paths)}")
     exit_on_fit_problems(res.facts)
+
+
+def sharing_option(*, shared: tuple[str, ...], per_run: tuple[str, ...], per_group: tuple[str, ...]) -> dict[str, str]:
+    """The sharing declared by --shared, --per-run and --per-group (``NAME=FIELDS``)."""
+    from pendtrack.fitting.joint import sharing_from_lists
+
+    groups = {}
+    for item in per_group:
+        name, sep, fields = item.partition("=")
+        if not sep or not name.strip() or not fields.strip():
+            raise click.UsageError(f"--per-group expects NAME=FIELDS (e.g. Ca=tile+alley), got {item!r}")
+        groups[name.strip()] = fields.strip()
+    return sharing_from_lists(shared=_names(shared), per_run=_names(per_run), per_group=groups)
+
+
+def fit_series(files: tuple[str, ...], *, config: Any, models: tuple[str, ...], sharing: dict[str, str],
+               common: CommonArgs, table: Any) -> None:
+    """Several records: the joint fit (:func:`pendtrack.stages.series.series_fit_stage`), its summary, its exit code."""
+    from pendtrack.stages.series import series_fit_stage
+
+    res = series_fit_stage(files, out_dir=common.out, config=config, models=models or None, sharing=sharing,
+                           table=table, force=common.force)
+    finish(res, echo_series_summary)
+
+
+def echo_series_summary(facts: dict[str, Any]) -> None:
+    """One line per jointly fitted model: verdict, runs, Xi2_min, rms, the shared values."""
+    runs = facts.get("runs") or []
+    for name, f in (facts.get("models") or {}).items():
+        shared = ", ".join(f"{k} = {_fmt(v, '.5g')} +- {_fmt(e, '.2g')}" for k, (v, e) in (f.get("shared") or {}).items())
+        click.echo(f"{name} (joint, {len(runs)} runs): {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
+                   f"rms = {_fmt(f.get('rms'), '.3g')} rad, BIC = {_fmt(f.get('bic'), '.1f')}"
+                   + (f"; shared: {shared}" if shared else ""))
 
 
 def echo_fit_summary(facts: dict[str, Any]) -> None:

@@ -35,7 +35,7 @@ import numpy as np
 from pendtrack.config import FIT_COORDINATES, FitConfig, ModelsConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting.leastsq.cost import COSTS, Observation
-from pendtrack.fitting.estimate import estimate
+from pendtrack.fitting.estimate import Setup, estimate
 from pendtrack.fitting.leastsq.problem import JACOBIANS, Simulator
 from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.refine import refine
@@ -142,6 +142,21 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                     source=source)
     setup = estimate(model, record, options=options, model_options=model_options, fixed=fixed, initial=initial,
                      simulator=simulator, method=method)
+    return fit_setup(setup, options=options, model_options=model_options, seed=seed, workers=workers,
+                     extra_starts=extra_starts, on_progress=on_progress, pool=pool, t_wall=t_wall)
+
+
+def fit_setup(setup: Setup, *, options: FitConfig, model_options: ModelsConfig, seed: int, workers: int,
+              extra_starts: Sequence[Mapping[str, float]] = (), on_progress: Callable[[int], None] | None = None,
+              pool: ProcessPool | None = None, t_wall: float | None = None) -> FitResult:
+    """Steps 2-5 of a fit (search, refine, uncertainty, result) from an estimate step's :class:`Setup`.
+
+    The arguments are :func:`fit_model`'s (resolved: ``seed``, ``workers`` given); ``t_wall`` is the
+    :func:`time.monotonic` the runtime counts from (default: now). A caller that needs the problem of
+    the fit too (a joint fit over several records) runs :func:`~pendtrack.fitting.estimate.estimate`
+    itself and then this.
+    """
+    t_wall = time.monotonic() if t_wall is None else t_wall
     found = search(setup, options=options, seed=seed, workers=workers, extra_starts=extra_starts,
                    on_progress=on_progress, pool=pool)
     best = refine(setup.problem, found.best, options=options)
@@ -151,4 +166,4 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
                         runtime_s=time.monotonic() - t_wall)
 
 
-__all__ = ["check_options", "fit_model"]
+__all__ = ["check_options", "fit_model", "fit_setup"]

@@ -131,6 +131,32 @@ def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = 
     lag : int
         The lag used.
     """
+    meat, lag = hac_meat(jac, r, n, lag=lag)
+    return sandwich(jac.T @ jac, meat), lag
+
+
+def sandwich(bread: np.ndarray, meat: np.ndarray) -> np.ndarray:
+    """``B^-1 S B^-1``, symmetrised; NaN if the bread ``B = J^T J`` is singular."""
+    try:
+        binv = np.linalg.inv(bread)
+    except np.linalg.LinAlgError:
+        return np.full_like(bread, np.nan)
+    cov = binv @ meat @ binv
+    return 0.5 * (cov + cov.T)
+
+
+def hac_meat(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None) -> tuple[np.ndarray, int]:
+    """The long-run covariance ``S`` of the per-sample scores (the sandwich's meat, Bartlett kernel).
+
+    Arguments as :func:`hac_covariance`. Independent records add their meats (a joint fit's
+    sandwich is ``B^-1 (S_1 + S_2 + ...) B^-1``).
+
+    Returns
+    -------
+    meat : ndarray, shape (p, p)
+    lag : int
+        The lag used [samples].
+    """
     jc = channels(jac, n)  # (c, n, p)
     rc = channels(r, n)  # (c, n)
     scores = np.einsum("cnp,cn->np", jc, rc)
@@ -141,13 +167,7 @@ def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = 
         w = 1.0 - ell / (lag + 1.0)
         gamma = scores[ell:].T @ scores[:-ell]
         meat += w * (gamma + gamma.T)
-    bread = jac.T @ jac
-    try:
-        binv = np.linalg.inv(bread)
-    except np.linalg.LinAlgError:
-        return np.full_like(bread, np.nan), lag
-    cov = binv @ meat @ binv
-    return 0.5 * (cov + cov.T), lag
+    return meat, lag
 
 
 def naive_covariance(jac: np.ndarray, r: np.ndarray) -> np.ndarray:

@@ -1,0 +1,215 @@
+"""`fit` over several records: one model fitted jointly to a series of runs -> fit_<model>.json, fit.json.
+
+The stage reads every record as the fit stage does (:func:`pendtrack.stages.kinematics.kinematics_input`:
+kinematics.parquet or any angle record, differentiated with ``[kinematics]``), names each run by
+its run code (:mod:`pendtrack.batch.runcode`: the file's stem, else its folder's name, as
+``pendtrack batch`` writes ``DIR/06na5/kinematics.parquet``), and calls
+:func:`pendtrack.fitting.joint.fit_joint` per model. Each run keeps its own filter and its own
+``theta_off`` (the offset term is fitted when any run's zero of theta was not measured,
+:func:`pendtrack.fitting.models_fit.fits_offset`).
+
+Files: ``fit_<model>.json`` per model (:mod:`pendtrack.fitting.joint.outcome`: the issue's keys over
+the runs pooled, the shared values, the groups, each run's values and residual) and ``fit.json``
+(the one model's record, or ``{"models", "files", "selected", "all_converged"}`` with the lowest
+BIC among the converged fits). All are written atomically, after every fit succeeded.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, inputs_for, write_json_artifact
+from pendtrack.batch.runcode import RunCodeError, parse_run_code
+from pendtrack.config import Config
+from pendtrack.errors import FitError
+from pendtrack.fitting.joint import JointFit, fit_joint, resolve_scopes
+from pendtrack.fitting.leastsq.samples import Record
+from pendtrack.fitting.models_fit import check_models, fits_offset, model_json_name, observation_from
+from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.stages.fit import COMBINED, CONTAINER_KEYS, fit_sections
+from pendtrack.stages.kinematics import kinematics_input
+from pendtrack.tables import TableSpec
+
+log = logging.getLogger(__name__)
+
+
+def run_names(paths: Sequence[Path]) -> tuple[list[str], list[dict[str, str]]]:
+    """Each record's run id and run-code labels (``tile``, ``launched``, ``alley``; empty without a code).
+
+    The run code is read from the file's stem, else from its folder's name; a record without one
+    is named by its stem (or ``folder/stem`` where stems repeat).
+
+    Raises
+    ------
+    FitError
+        Two records with the same run id.
+    """
+    ids, labels = [], []
+    stems = [p.stem for p in paths]
+    for p in paths:
+        for name in (p.stem, p.parent.name):
+            try:
+                code = parse_run_code(name)
+            except RunCodeError:
+                continue
+            ids.append(code.run_id)
+            labels.append({"tile": f"{code.tile_cm:02d}", "launched": "l" if code.launched else "n",
+                           "alley": "a" if code.alley else "n"})
+            break
+        else:
+            ids.append(p.stem if stems.count(p.stem) == 1 else f"{p.parent.name}/{p.stem}")
+            labels.append({})
+    for i, run in enumerate(ids):
+        if ids.index(run) != i:
+            raise FitError(f"two records are run '{run}' ({paths[ids.index(run)]} and {paths[i]})", path=paths[i])
+    return ids, labels
+
+
+def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, config: Config,
+                     models: tuple[str, ...] | None = None, sharing: Mapping[str, str] | None = None,
+                     table: TableSpec | None = None, force: bool = False) -> StageOutput:
+    """Fit each model jointly to every record; writes fit_<model>.json and fit.json in ``out_dir``.
+
+    Parameters
+    ----------
+    kinematics : sequence of path
+        Two or more records (kinematics.parquet or any angle record).
+    out_dir : path
+        Output folder (created).
+    config : Config
+        ``[fit]`` (each run's own fit, ``joint_starts``, ...), ``[models]``, ``[kinematics]``.
+    models : tuple of str, optional
+        Model names; default ``config.fit.models``.
+    sharing : mapping, optional
+        Parameter name -> scope (``shared``, ``run``, ``tile``, ``tile+alley``, ...;
+        :mod:`pendtrack.fitting.joint.scopes`), overriding the defaults.
+    table : TableSpec, optional
+        Column names and pivot of table inputs.
+    force : bool
+        Refit even if the outputs are up to date.
+
+    Returns
+    -------
+    StageOutput
+        ``paths``: fit.json, then the per-model files. ``facts``: ``models`` (per model: converged,
+        trustworthy, flags, xi2_min, rms, bic, shared values, runtime_s, message), ``runs``,
+        ``not_converged``, ``flagged``, ``selected``, ``files``.
+
+    Raises
+    ------
+    FitError
+        Fewer than two records, one given twice, a bad sharing, a record a fit refuses.
+    ArtifactError, ModelError
+        A missing or malformed record, an unknown model.
+    """
+    paths = [Path(k) for k in kinematics]
+    out_dir = Path(out_dir)
+    if len(paths) < 2:
+        raise FitError(f"a joint fit needs at least two records, got {len(paths)}")
+    seen = [p.resolve() for p in paths]
+    for i, p in enumerate(seen):
+        if seen.index(p) != i:
+            raise FitError("the record is given twice", path=paths[i])
+    names = tuple(models or config.fit.models)
+    model_objs = check_models(names, source=paths[0])
+    runs, labels = run_names(paths)
+    for model in model_objs.values():  # a bad sharing fails before any record is read
+        resolve_scopes(model, sharing, labels=dict(zip(runs, labels)))
+    read = [kinematics_input(p, config=config, table=table) for p in paths]
+    sections = {**fit_sections(config, {}, names), "runs": {r: s for r, (_, s) in zip(runs, read)},
+                "sharing": dict(sharing or {})}
+    inputs = inputs_for(*paths)
+    out_paths = (out_dir / COMBINED, *(out_dir / model_json_name(n) for n in names))
+    if up_to_date(out_paths, "fit", inputs=inputs, config=sections, force=force):
+        record = json.loads((out_dir / COMBINED).read_text(encoding="utf-8"))
+        return StageOutput(out_paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
+
+    records, zeros = {}, []
+    for run, (art, _) in zip(runs, read):
+        df, prov = art.data, art.provenance
+        t = df["t"].to_numpy(float)
+        obs = observation_from(dict(prov.extra or {}), dict(prov.config or {}), t, source=str(art.path))
+        records[run] = Record(t, df["theta"].to_numpy(float), df["omega"].to_numpy(float),
+                              alpha=df["alpha"].to_numpy(float), ok=df["ok"].to_numpy(bool), observation=obs,
+                              source=str(art.path))
+        zeros.append(str((prov.extra or {}).get("zero_reference") or "unknown"))
+    offset = any(fits_offset(config.fit.offset, z) for z in zeros)
+    fits = fit_series(model_objs, records, offset=offset, sharing=sharing, labels=dict(zip(runs, labels)),
+                      config=config)
+    payloads, facts = series_payloads(fits, runs=runs)
+    prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=facts)
+    for name, payload in payloads.items():
+        if name != COMBINED:
+            write_json_artifact(payload, out_dir / name, required=FIT_JSON_KEYS, provenance=prov)
+    required = FIT_JSON_KEYS if len(fits) == 1 else CONTAINER_KEYS
+    write_json_artifact(payloads[COMBINED], out_dir / COMBINED, required=required, provenance=prov)
+    return StageOutput(out_paths, facts=facts)
+
+
+def fit_series(model_objs: Mapping[str, Any], records: Mapping[str, Record], *, offset: bool,
+               sharing: Mapping[str, str] | None, labels: Mapping[str, Mapping[str, str]],
+               config: Config) -> dict[str, JointFit]:
+    """:func:`~pendtrack.fitting.joint.fit_joint` of each model (with the offset term if ``offset``)."""
+    from pendtrack.fitting.leastsq.ladder import search_pool
+    from pendtrack.models import compose
+
+    fits = {}
+    workers = search_pool(config.fit.workers)
+    try:
+        for name, model in model_objs.items():
+            if offset and "offset" not in model.terms:
+                model = compose(model, ["offset"])
+            fits[name] = fit_joint(model, records, sharing=sharing, labels=labels, options=config.fit,
+                                   model_options=config.models, pool=workers)
+    finally:
+        if workers is not None:
+            workers.shutdown(wait=True, cancel_futures=True)
+    return fits
+
+
+def series_payloads(fits: Mapping[str, JointFit], *, runs: Sequence[str]) -> tuple[dict[str, dict[str, Any]],
+                                                                                  dict[str, Any]]:
+    """fit_<model>.json of each model and fit.json (key ``fit.json``), and the stage's facts."""
+    records = {n: {**f.to_dict(), "model": n, "fitted_model": f.model} for n, f in fits.items()}
+    files = {n: model_json_name(n) for n in fits}
+    converged = [n for n, f in fits.items() if f.converged]
+    selected = min(converged, key=lambda n: fits[n].bic) if converged else None
+    payloads = {files[n]: records[n] for n in fits}
+    if len(fits) == 1:
+        payloads[COMBINED] = next(iter(records.values()))
+    else:
+        payloads[COMBINED] = {"models": records, "files": files, "selected": selected,
+                              "selected_by": "lowest bic among converged joint fits (same records and cost)",
+                              "all_converged": len(converged) == len(fits)}
+    facts = {"joint": True, "runs": list(runs), "files": files, "selected": selected,
+             "not_converged": [n for n, f in fits.items() if not f.converged],
+             "flagged": {n: dict(f.flags) for n, f in fits.items() if f.flags},
+             "models": {n: {"converged": f.converged, "trustworthy": f.trustworthy, "flags": dict(f.flags),
+                            "xi2_min": f.xi2_min, "rms": f.rms, "bic": f.bic, "runtime_s": f.runtime_s,
+                            "fitted_model": f.model, "message": f.message,
+                            "shared": {k: [v.value, v.stderr] for k, v in f.shared.items()}}
+                        for n, f in fits.items()}}
+    return payloads, facts
+
+
+JOINT_DIR = "joint"  # `batch --joint`: the joint fit's folder inside the batch's
+
+
+def batch_joint_fit(out_dir: Path, run_ids: Sequence[str], *, config: Config, models: tuple[str, ...] | None,
+                    sharing: Mapping[str, str] | None = None, force: bool = False) -> StageOutput:
+    """`batch --joint`: the joint fit of a batch's runs (``DIR/<run id>/kinematics.parquet``) into ``DIR/joint/``.
+
+    Raises
+    ------
+    FitError
+        Fewer than two runs to fit.
+    """
+    files = [Path(out_dir) / run / "kinematics.parquet" for run in run_ids]
+    if len(files) < 2:
+        raise FitError(f"batch --joint needs at least two runs that succeeded, got {len(files)}", path=out_dir)
+    return series_fit_stage(files, out_dir=Path(out_dir) / JOINT_DIR, config=config, models=models, sharing=sharing,
+                            force=force)

@@ -1,0 +1,187 @@
+"""Several runs of one pendulum fitted jointly: shared and per-group values, their standard errors, the doors.
+
+Four short synthetic runs (standard model, 60 Hz, 15 s, 3 mrad white noise, seeded) of one rig with two
+tiles: Omega0 differs by tile, the axle's Coulomb friction C0 is shared, the drag is the same in every run
+and each run is released from its own angle. The records go through the kinematics stage (Savitzky-Golay)
+as measured ones do; the runs are named by run codes (03na1, 03na2, 06na1, 06na2).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_json_artifact, write_artifact
+from pendtrack.cli import cli
+from pendtrack.config import Config
+from pendtrack.errors import FitError
+from pendtrack.fitting.joint import default_scopes, resolve_scopes, sharing_from_lists
+from pendtrack.models import get_model, simulate
+from pendtrack.stages.kinematics import kinematics_stage
+
+DRAG = {"C1": 0.02, "C0": 0.05, "C2": 0.002}
+OMEGA0 = {"03": 5.0, "06": 4.8}  # rad/s per tile
+RUNS = {"03na1": 2.8, "03na2": 1.4, "06na1": 2.3, "06na2": 1.0}  # run -> release angle [rad]
+STARTS = ("--starts", "3", "--workers", "1")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory):
+    """kinematics.parquet of each run, in a folder named by its run code."""
+    root = tmp_path_factory.mktemp("series")
+    t = np.arange(15 * 60) / 60.0
+    files = []
+    for i, (run, theta0) in enumerate(RUNS.items()):
+        truth = {"Omega0": OMEGA0[run[:2]], **DRAG}
+        sim = simulate(get_model("standard"), truth, t, theta0=theta0, omega0=0.0)
+        theta = sim.theta + np.random.default_rng(10 + i).normal(0.0, 3e-3, t.size)
+        d = root / run
+        d.mkdir()
+        write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), d / "angle.parquet",
+                       "angle", provenance=Provenance(stage="test"))
+        files.append(str(kinematics_stage(d / "angle.parquet", out_dir=d, config=Config(), progress=False).path))
+    return files
+
+
+@pytest.fixture(scope="module")
+def joint(runs, tmp_path_factory: pytest.TempPathFactory):
+    """`pendtrack fit` over the four runs: its exit, output and fit_standard.json."""
+    out = tmp_path_factory.mktemp("joint")
+    res = CliRunner().invoke(cli, ["fit", *runs, "--model", "standard", *STARTS, "-q", "--out", str(out),
+                                   "--config", str(_config_file(out))])
+    return res, read_json_artifact(out / "fit_standard.json", required=FIT_JSON_KEYS) if res.exit_code == 0 else None
+
+
+def _config_file(folder) -> object:
+    path = folder / "fit.toml"
+    path.write_text("[fit]\nprofile = false\njoint_starts = 2\n")
+    return path
+
+
+def test_default_scopes_follow_the_run_codes():
+    model = get_model("classic")
+    coded = default_scopes(model, run_codes=True)
+    assert coded["Omega0"] == ("tile",) and coded["C0"] == () and coded["Ca"] == ("tile", "alley")
+    assert coded["C3"] == coded["p"] == ("tile", "alley") and coded["theta0"] == coded["omega0"] == ("run",)
+    plain = default_scopes(model, run_codes=False)
+    assert all(plain[n] == () for n in model.param_names) and plain["theta0"] == ("run",)
+    opa = default_scopes(get_model("opa"), run_codes=True)
+    assert opa["t0"] == ("run",) and opa["C5"] == () and opa["C4"] == ("tile", "alley")
+
+
+@pytest.mark.parametrize("sharing, words", [
+    ({"C9": "shared"}, "'C9' is not a parameter of model 'standard'"),
+    ({"theta0": "shared"}, "initial state"),
+    ({"Omega0": "tile"}, "needs a run code"),
+    ({"Omega0": "colour"}, "unknown scope 'colour'"),
+])
+def test_bad_sharing_is_a_one_line_fit_error(sharing, words):
+    with pytest.raises(FitError) as info:
+        resolve_scopes(get_model("standard"), sharing, labels={"a": {}, "b": {}})
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_parameter_declared_twice_is_an_error():
+    with pytest.raises(FitError, match="declared twice"):
+        sharing_from_lists(shared=["C0"], per_run=["C0"])
+
+
+def test_joint_fit_recovers_the_shared_and_the_per_tile_values(joint):
+    res, rec = joint
+    assert res.exit_code == 0, res.output
+    assert "standard (joint, 4 runs): converged" in res.output
+    assert rec["joint"] is True and rec["n_runs"] == 4 and rec["converged"] is True
+    assert rec["sharing"] == {"Omega0": "tile", "C1": "tile+alley", "C0": "shared", "C2": "tile+alley",
+                              "theta0": "run", "omega0": "run"}
+    # C0, the rig's, within 2 joint standard errors of the truth (a Gaussian 95 % interval)
+    c0 = rec["params"]["C0"]
+    assert abs(c0["value"] - DRAG["C0"]) <= 2.0 * c0["stderr"], c0
+    for tile, omega0 in OMEGA0.items():
+        est = rec["groups"]["Omega0"][f"tile={tile}"]
+        assert abs(est["value"] - omega0) <= 2.0 * est["stderr"], (tile, est)
+        assert est["runs"] == [r for r in RUNS if r.startswith(tile)]
+    # the two tiles' frequencies differ as simulated, by far more than their errors
+    g = rec["groups"]["Omega0"]
+    assert g["tile=03"]["value"] - g["tile=06"]["value"] > 10 * max(g["tile=03"]["stderr"], g["tile=06"]["stderr"])
+    for run, theta0 in RUNS.items():  # each run keeps its own release angle (SG filter's edge: ~mrad)
+        own = rec["runs"][run]
+        assert own["columns"]["theta0"] == f"theta0@{run}" and own["columns"]["C0"] == "C0"
+        assert abs(own["initial_state"]["theta0"]["value"] - theta0) < 0.01
+        assert own["n"] > 0 and own["rms"] < 0.01 and own["xi2"] > 0
+
+
+def test_shared_standard_error_beats_the_single_runs(joint):
+    _, rec = joint
+    c0 = rec["params"]["C0"]["stderr"]
+    singles = [r["single"]["params"]["C0"]["stderr"] for r in rec["runs"].values()]
+    assert c0 < min(singles)
+    # four runs: independent errors would give 1/sqrt(4) of the mean single error; the spread of amplitudes
+    # separates C0 from the velocity-dependent drag, so the joint error may be smaller still (issue #29: <= 1.5/sqrt(n))
+    assert rec["stderr_ratio"]["C0"] <= 1.5 / math.sqrt(4)
+    assert rec["stderr_ratio"]["C0"] == pytest.approx(c0 / np.mean(singles))
+
+
+def test_library_door_gives_the_cli_numbers(joint, runs, tmp_path):
+    import pendtrack as pt
+
+    _, rec = joint
+    fits = pt.fit(runs, "standard", config=_config_file(tmp_path), starts=3, workers=1)
+    lib = fits["standard"].to_dict()
+    assert lib["params"] == rec["params"] and lib["groups"] == rec["groups"]
+    assert {r: v["params"] for r, v in lib["runs"].items()} == {r: v["params"] for r, v in rec["runs"].items()}
+
+
+def test_per_run_declaration_fits_a_value_per_run(runs, tmp_path):
+    import pendtrack as pt
+
+    fits = pt.fit(runs[:2], "standard", config=_config_file(tmp_path), starts=3, workers=1, shared=["Omega0"],
+                  per_run=["C2"])
+    rec = fits["standard"].to_dict()
+    assert rec["sharing"]["Omega0"] == "shared" and rec["sharing"]["C2"] == "run"
+    assert set(rec["params"]) == {"Omega0", "C0"} and "C2" not in rec["params"]
+    assert {r["columns"]["C2"] for r in rec["runs"].values()} == {"C2@03na1", "C2@03na2"}
+
+
+@pytest.mark.parametrize("flags, words", [
+    (["--shared", "C0,C9"], "'C9' is not a parameter of model 'standard'"),
+    (["--per-group", "Ca"], "--per-group expects NAME=FIELDS"),
+    (["--shared", "C0", "--per-run", "C0"], "declared twice"),
+])
+def test_bad_sharing_flag_is_one_line_exit_2_and_no_file(runs, tmp_path, flags, words):
+    out = tmp_path / "bad"
+    res = CliRunner().invoke(cli, ["fit", *runs[:2], "--model", "standard", *STARTS, *flags, "-q", "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0], res.output
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_one_record_with_sharing_flags_is_an_error(runs, tmp_path):
+    res = CliRunner().invoke(cli, ["fit", runs[0], "--model", "standard", "--shared", "C0", "-q", "--out",
+                                   str(tmp_path)])
+    assert res.exit_code == 2 and "need several records" in res.output
+
+
+def test_a_record_given_twice_is_an_error(runs, tmp_path):
+    res = CliRunner().invoke(cli, ["fit", runs[0], runs[0], "--model", "standard", "-q", "--out", str(tmp_path)])
+    assert res.exit_code == 2 and "given twice" in res.output and not (tmp_path / "fit.json").exists()
+
+
+def test_batch_joint_fits_the_runs_of_a_batch_folder(runs, tmp_path):
+    # a batch folder holds DIR/<run id>/kinematics.parquet; `batch --joint` fits them into DIR/joint/
+    from pathlib import Path
+
+    from pendtrack.stages.series import batch_joint_fit
+
+    batch_dir = Path(runs[0]).parent.parent
+    config = Config().replace("fit", n_starts=3, workers=1, profile=False, joint_starts=2)
+    res = batch_joint_fit(batch_dir, ["03na1", "06na2"], config=config, models=("standard",))
+    rec = read_json_artifact(batch_dir / "joint" / "fit_standard.json", required=FIT_JSON_KEYS)
+    assert res.facts["runs"] == ["03na1", "06na2"] and set(rec["runs"]) == {"03na1", "06na2"}
+    with pytest.raises(FitError, match="at least two runs"):
+        batch_joint_fit(batch_dir, ["03na1"], config=config, models=("standard",))
