@@ -89,6 +89,16 @@ def zero_reference(rec: Record) -> str:
     return "table"
 
 
+def zero_sigma(rec: Record) -> float | None:
+    """The standard uncertainty [rad] of theta's zero from the axle's sideways uncertainty (angle.parquet's
+    ``axle_uncertainty.zero_sigma_rad``, passed on by kinematics.parquet as ``zero_sigma_rad``); None when the
+    record does not carry one (a given axle, a table, the truth)."""
+    extra = (rec.provenance.extra or {}) if rec.provenance is not None and rec.kind in ("angle", "kinematics") else {}
+    value = extra.get("zero_sigma_rad") if rec.kind == "kinematics" else (extra.get("axle_uncertainty") or {}).get(
+        "zero_sigma_rad")
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+
 def table_sections(table: TableSpec | None) -> dict[str, Any]:
     """What a stage adds to its provenance config for ``--columns``/``--pivot`` (nothing by default)."""
     return {} if table is None or table.default else {"table": table.to_dict()}
@@ -120,7 +130,8 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     -------
     artifact : Artifact
         Columns t, theta, omega, alpha, ok (segment); provenance with the Savitzky-Golay facts
-        (``window_points``, ``order``, ``h``) and ``zero_reference`` (:func:`zero_reference`).
+        (``window_points``, ``order``, ``h``), ``zero_reference`` (:func:`zero_reference`) and
+        ``zero_sigma_rad`` (:func:`zero_sigma`).
     sections : dict
         To add to the consumer's provenance config: ``kinematics`` (when computed here),
         ``input`` (how it was read, when it was not a kinematics artifact used as it is) and
@@ -138,7 +149,7 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
                           "segment": kin.segment})
     sections |= {**config.sections("kinematics"), "input": rec.info}
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
-                      extra={**kin.info, "zero_reference": zero_reference(rec)})
+                      extra={**kin.info, "zero_reference": zero_reference(rec), "zero_sigma_rad": zero_sigma(rec)})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -173,7 +184,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         ``window_clipped``, ``n_segments``, ``n_dropped_segments``, ``n_bridged``,
         ``resampled``, ``ok_fraction``; ``input``: how the file was read (columns, pivot,
         ``resampled`` grid, ``warnings``); ``zero_reference``: where theta's zero comes from
-        (:func:`zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured).
+        (:func:`zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured);
+        ``zero_sigma_rad``: its uncertainty from the axle's (:func:`zero_sigma`; part of theta_off's stderr).
 
     Raises
     ------
@@ -214,6 +226,7 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         **kin.info,
         "input": rec.info,
         "zero_reference": zero_reference(rec),
+        "zero_sigma_rad": zero_sigma(rec),
     }
     write_artifact(frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))
