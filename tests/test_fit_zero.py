@@ -34,9 +34,9 @@ def _theta() -> tuple[np.ndarray, np.ndarray]:
     return t, sim.theta + OFFSET + np.random.default_rng(3).normal(0.0, 1e-3, t.size)
 
 
-def _angle(path, zero: str | None):  # noqa: ANN001, ANN202
+def _angle(path, zero: str | None, **extra):  # noqa: ANN001, ANN003, ANN202
     t, theta = _theta()
-    extra = {} if zero is None else {"zero_reference": zero}
+    extra = extra if zero is None else {"zero_reference": zero, **extra}
     write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), path, "angle",
                    provenance=Provenance(stage="angle", extra=extra))
     return path
@@ -80,6 +80,22 @@ def test_a_vertical_zero_is_fitted_as_theta_off(vertical_fit):
     assert out.facts["zero_reference"] == "vertical"
     combined = read_json_artifact(out_dir / "fit.json", required=FIT_JSON_KEYS)
     assert combined["model"] == "standard" and "theta_off" in combined["params"]
+
+
+def test_theta_off_carries_the_axles_share_of_the_zero(vertical_fit, tmp_path):
+    # the angle stage's axle off sideways turns theta's zero, the same in every sample: the fit's residuals cannot
+    # see it, so theta_off's standard error adds it (in quadrature) to the fit's own
+
+    zs = 2e-4  # [rad]
+    path = _angle(tmp_path / "angle.parquet", "vertical", axle_uncertainty={"zero_sigma_rad": zs})
+    assert read_record(path).zero_sigma_rad == zs
+    assert read_record(_angle(tmp_path / "v.parquet", "vertical")).zero_sigma_rad is None  # a given axle: none
+    out = fit_stage(path, out_dir=tmp_path / "fit", config=FAST, models=("standard",), progress=False)
+    own = read_json_artifact(vertical_fit[0] / "fit_standard.json", required=FIT_JSON_KEYS)["params"]["theta_off"]
+    off = json.loads((tmp_path / "fit" / "fit_standard.json").read_text())["params"]["theta_off"]
+    assert off["value"] == pytest.approx(own["value"], abs=1e-12)  # the same fit ...
+    assert off["stderr"] == pytest.approx(np.hypot(own["stderr"], zs), rel=1e-9)  # ... with the axle's share
+    assert out.facts["zero_sigma_rad"] == zs and vertical_fit[1].facts["zero_sigma_rad"] is None
 
 
 def test_a_measured_rest_fits_as_before(tmp_path):

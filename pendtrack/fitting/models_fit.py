@@ -8,7 +8,8 @@ content (one model's record, or the container of several), the curves of fit.par
 stage's facts. The decisions made here:
 
 * the ``offset`` term (:func:`fits_offset`): added to every model when theta's zero was not
-  measured (``[fit] offset = "auto"``), or always, or never;
+  measured (``[fit] offset = "auto"``), or always, or never; theta_off's standard error includes the
+  axle's share of the zero (:func:`with_zero_sigma`);
 * the data's filter (:func:`observation_from`), from the kinematics provenance;
 * the selected model: the trustworthy fit (converged, no parameter flagged) with the lowest BIC,
   or if none is, the converged one (same data and cost for every model);
@@ -21,7 +22,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import AbstractContextManager, nullcontext
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -150,7 +151,7 @@ class ModelFits:
         fit.parquet's columns: t, theta, theta_model, omega_model, residual, model (models stacked).
     facts : dict
         The stage's facts (its provenance's ``extra``): models, not_converged, flagged, selected,
-        files, observation, zero_reference.
+        files, observation, zero_reference, zero_sigma_rad.
     """
 
     results: Mapping[str, FitResult]
@@ -227,6 +228,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         if workers is not None:
             workers.shutdown(wait=True, cancel_futures=True)
 
+    results = {n: with_zero_sigma(r, provenance_extra.get("zero_sigma_rad")) for n, r in results.items()}
     # "model" is the model asked for (file names, batch columns and the report key on it), "fitted_model"
     # the one fitted (e.g. "classic+offset")
     records = {n: {**r.to_dict(), "model": n, "fitted_model": r.model} for n, r in results.items()}
@@ -243,6 +245,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         "files": dict(files),
         "observation": {"savgol_window": obs.savgol_window, "savgol_order": obs.savgol_order},
         "zero_reference": zero,
+        "zero_sigma_rad": _num(provenance_extra.get("zero_sigma_rad")),
     }
     if len(names) == 1:
         combined = records[names[0]]
@@ -254,6 +257,26 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
                     "all_converged": len(converged) == len(names), "cross_model": cross}
     return ModelFits(results=results, records=records, files=files, combined=combined,
                      curves=_curves(results, model_objs, t, theta), facts=facts)
+
+
+def with_zero_sigma(result: FitResult, zero_sigma: Any) -> FitResult:
+    """``result`` with the axle's share of theta's zero added (in quadrature) to theta_off's standard errors.
+
+    A fitted ``theta_off`` is theta's zero as the track's axle sets it: the axle off sideways by
+    ``dx`` turns the vertical through it by ``dx / radius``, the same in every sample, which the
+    fit's residuals cannot reveal -- their standard error counts the scatter of theta about the
+    model only. ``zero_sigma`` [rad] (angle.parquet's ``zero_sigma_rad``, from the axle's
+    uncertainty, :func:`pendtrack.track.circle.circle_uncertainty`) is that share; ``stderr``,
+    ``stderr_low`` and ``stderr_high`` of theta_off include it (``stderr_naive`` and
+    ``stderr_bootstrap`` stay the fit's own). Unchanged without ``theta_off`` or a number.
+    """
+    if "theta_off" not in result.params or isinstance(zero_sigma, bool) or not isinstance(zero_sigma, (int, float)):
+        return result
+    p = result.params["theta_off"]
+    zs = float(zero_sigma)
+    p = replace(p, stderr=float(np.hypot(p.stderr, zs)), stderr_low=float(np.hypot(p.stderr_low, zs)),
+                stderr_high=float(np.hypot(p.stderr_high, zs)))
+    return replace(result, params={**result.params, "theta_off": p})
 
 
 def _model_facts(r: FitResult) -> dict[str, Any]:

@@ -107,8 +107,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         or no arc about one axle). An arc shorter than ``MIN_ARC_SPAN_DEG`` within it gives
         theta with a warning; ``axle_uncertainty`` in the provenance: the axle's and the
         radius' standard uncertainties [px], theta's relative scale uncertainty and its zero's
-        uncertainty from the axle's (``zero_sigma_rad``: sigma_x / radius; a fitted theta_off's
-        stderr does not include it).
+        uncertainty from the axle's (``zero_sigma_rad``: sigma_x / radius; the kinematics pass it
+        on and a fitted theta_off's stderr includes it).
     ConfigError
         Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is
         clearly not the footage's.

@@ -59,7 +59,8 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     -------
     artifact : Artifact
         Columns t, theta, omega, alpha, ok (segment); provenance with the Savitzky-Golay facts
-        (``window_points``, ``order``, ``h``) and ``zero_reference`` (:attr:`pendtrack.tables.Record.zero_reference`).
+        (``window_points``, ``order``, ``h``), ``zero_reference`` (:attr:`pendtrack.tables.Record.zero_reference`)
+        and ``zero_sigma_rad`` (:attr:`pendtrack.tables.Record.zero_sigma_rad`).
     sections : dict
         To add to the consumer's provenance config: ``kinematics`` (when computed here),
         ``input`` (how it was read, when it was not a kinematics artifact used as it is) and
@@ -76,7 +77,8 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     frame = kinematic_columns(kin)
     sections |= {**config.sections("kinematics"), "input": rec.info}
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
-                      extra={**kin.info, "zero_reference": rec.zero_reference})
+                      extra={**kin.info, "zero_reference": rec.zero_reference,
+                             "zero_sigma_rad": rec.zero_sigma_rad})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -111,7 +113,9 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         ``window_clipped``, ``n_segments``, ``n_dropped_segments``, ``n_bridged``,
         ``resampled``, ``ok_fraction``; ``input``: how the file was read (columns, pivot,
         ``resampled`` grid, ``warnings``); ``zero_reference``: where theta's zero comes from
-        (:attr:`pendtrack.tables.Record.zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not measured).
+        (:attr:`pendtrack.tables.Record.zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not
+        measured); ``zero_sigma_rad``: its uncertainty from the axle's (:attr:`pendtrack.tables.Record.zero_sigma_rad`;
+        part of theta_off's stderr).
 
     Raises
     ------
@@ -132,7 +136,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         record = read_metadata(out) or {}
         return StageOutput((out,), skipped=True, facts=dict(record.get("extra", {})))
     result = kinematics_table(rec.t, rec.theta, rec.ok, options=config.kinematics, source=angle)
-    facts = {**result.facts, "input": rec.info, "zero_reference": rec.zero_reference}
+    facts = {**result.facts, "input": rec.info, "zero_reference": rec.zero_reference,
+             "zero_sigma_rad": rec.zero_sigma_rad}
     write_artifact(result.frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))
     return StageOutput((out,), facts=facts)

@@ -127,6 +127,17 @@ class Record:
             return value if isinstance(value, str) and value else "unknown"
         return "table"
 
+    @property
+    def zero_sigma_rad(self) -> float | None:
+        """The standard uncertainty [rad] of theta's zero from the axle's sideways uncertainty (angle.parquet's
+        ``axle_uncertainty.zero_sigma_rad``, passed on by kinematics.parquet as ``zero_sigma_rad``); None when
+        the record does not carry one (a given axle, a table, the truth)."""
+        prov = self.provenance
+        extra = (prov.extra or {}) if prov is not None and self.kind in ("angle", "kinematics") else {}
+        value = (extra.get("zero_sigma_rad") if self.kind == "kinematics"
+                 else (extra.get("axle_uncertainty") or {}).get("zero_sigma_rad"))
+        return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
 
 def is_video(path: str | Path) -> bool:
     """True if ``path`` looks like a video file (by its suffix)."""
