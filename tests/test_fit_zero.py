@@ -85,7 +85,6 @@ def test_a_vertical_zero_is_fitted_as_theta_off(vertical_fit):
 def test_theta_off_carries_the_axles_share_of_the_zero(vertical_fit, tmp_path):
     # the angle stage's axle off sideways turns theta's zero, the same in every sample: the fit's residuals cannot
     # see it, so theta_off's standard error adds it (in quadrature) to the fit's own
-
     zs = 2e-4  # [rad]
     path = _angle(tmp_path / "angle.parquet", "vertical", axle_uncertainty={"zero_sigma_rad": zs})
     assert read_record(path).zero_sigma_rad == zs
