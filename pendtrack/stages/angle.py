@@ -1,74 +1,17 @@
-"""`angle` stage: track.parquet -> angle.parquet (axle by circle fit, theta unwrapped, zero at rest)."""
+"""`angle` stage: track.parquet -> angle.parquet (axle by circle fit, theta unwrapped, zero at rest).
+
+The stage reads the track, calls :func:`pendtrack.track.axle.angle_table` (every decision is made
+there) and writes what it returns.
+"""
 
 from __future__ import annotations
 
-import logging
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
-
-import numpy as np
-import pandas as pd
 
 from pendtrack.artifacts import Provenance, inputs_for, read_artifact, write_artifact
-from pendtrack.config import Config, LensConfig
-from pendtrack.errors import ConfigError, TrackingError
+from pendtrack.config import Config
 from pendtrack.stages import StageOutput, up_to_date
-from pendtrack.track.angle import theta_from_track
-from pendtrack.track.circle import circle_uncertainty, fit_circle
-from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
-
-log = logging.getLogger(__name__)
-
-MIN_ARC_SPAN_DEG = 20.0  # a shorter arc locates the axle poorly: theta with a warning stating its uncertainty
-# theta is given only while the axle's uncertainty scales it by at most this share (a 5 % scale error on theta
-# is a 5 % error on the nonlinear terms' amplitudes; Omega0 rests on the period, which no scale changes). Beyond
-# it the track is no arc about one axle: a short arc that bends within the noise, a point that is not the bob,
-# a bob swinging out of the image plane (a conical swing seen from the side: radius uncertain by 37-74 %)
-MAX_SCALE_REL = 0.05
-
-
-def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[str, Any],
-                        track_config: Mapping[str, Any], *, ratio: float) -> LensCheck | None:
-    """The lens check (:func:`pendtrack.track.lens_check.check_lens`) of a track's ok raw positions.
-
-    The lens is the one the track stage used (its provenance's ``[lens]``), the frame size
-    that of its video; None when the track does not record them (not made by the track stage).
-    """
-    lens = track_config.get("lens")
-    video = track_extra.get("video")
-    try:
-        width, height = int(video["width"]), int(video["height"])
-        projection, fov, fixed = str(lens["projection"]), float(lens["fov_deg"]), float(lens["fixed_pixels"])
-    except (TypeError, KeyError, ValueError):
-        return None
-    return check_lens(df["x_px"].to_numpy(float)[ok], df["y_px"].to_numpy(float)[ok], width=width, height=height,
-                      projection=projection, fov_deg=fov, fixed_pixels=fixed, ratio=ratio)
-
-
-def _in_frame(x: float, y: float, track_extra: Mapping[str, Any]) -> bool:
-    """Is ``(x, y)`` [px] inside the track's video frame (False when the track does not record its size)?"""
-    video = track_extra.get("video") or {}
-    try:
-        return 0 <= x < float(video["width"]) and 0 <= y < float(video["height"])
-    except (KeyError, TypeError, ValueError):
-        return False
-
-
-def lens_was_named(track_config: Mapping[str, Any]) -> bool:
-    """True when the track's ``[lens]`` is not the default one: a flag or a config file named it."""
-    lens = track_config.get("lens")
-    if not isinstance(lens, Mapping):
-        return False
-    default = LensConfig()
-    return any(lens.get(k) != getattr(default, k) for k in ("projection", "fov_deg", "fixed_pixels"))
-
-
-def lens_mismatch_text(check: LensCheck) -> str:
-    """One line: the mismatch and the flags that fix it."""
-    fix = suggestion_flags(check.suggestion) if check.suggestion else "another --projection/--fov"
-    return (f"lens mismatch: {check.reason}; track again with {fix} (pendtrack track/run), or set [angle] "
-            f"lens_check = \"warn\" in --config to go on")
+from pendtrack.track.axle import angle_table
 
 
 def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force: bool = False,
@@ -103,8 +46,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
         Missing or malformed track.
     TrackingError
         Too few ok points, or a track whose circle locates the axle so poorly that theta's
-        scale is uncertain by more than ``MAX_SCALE_REL`` (an arc bending within the noise,
-        or no arc about one axle). An arc shorter than ``MIN_ARC_SPAN_DEG`` within it gives
+        scale is uncertain by more than :data:`pendtrack.track.axle.MAX_SCALE_REL` (an arc bending within the noise,
+        or no arc about one axle). An arc shorter than :data:`pendtrack.track.axle.MIN_ARC_SPAN_DEG` within it gives
         theta with a warning; ``axle_uncertainty`` in the provenance: the axle's and the
         radius' standard uncertainties [px], theta's relative scale uncertainty and its zero's
         uncertainty from the axle's (``zero_sigma_rad``: sigma_x / radius; the kinematics pass it
@@ -120,66 +63,8 @@ def angle_stage(track: str | Path, *, out_dir: str | Path, config: Config, force
     inputs = inputs_for(track)
     if up_to_date((out,), "angle", inputs=inputs, config=sections, force=force):
         return StageOutput((out,), skipped=True)
-    df = art.data
-    ok = df["ok"].to_numpy(bool) & np.isfinite(df["x"].to_numpy()) & np.isfinite(df["y"].to_numpy())
-    ac = config.angle
-    check = None
-    if ac.lens_check != "off":
-        check = lens_check_of_track(df, ok, art.provenance.extra, art.provenance.config, ratio=ac.lens_ratio)
-        if check is not None and check.verdict == "mismatch":
-            # a lens the user named is theirs to keep: the check only warns
-            if ac.lens_check == "error" and not lens_was_named(art.provenance.config):
-                raise ConfigError(lens_mismatch_text(check), path=track)
-            log.warning("%s: %s", track, lens_mismatch_text(check))
-    circle = None
-    uncertainty: dict[str, object] = {}
-    if ac.axle:
-        if len(ac.axle) != 2:
-            raise ConfigError(f"[angle] axle must be x, y, got {list(ac.axle)}")
-        axle = (float(ac.axle[0]), float(ac.axle[1]))
-    else:
-        if ok.sum() < 10:
-            raise TrackingError(f"only {int(ok.sum())} ok points: too few to fit the axle", path=track)
-        xs, ys = df["x"].to_numpy()[ok], df["y"].to_numpy()[ok]
-        circle = fit_circle(xs, ys)
-        span = float(np.degrees(circle.arc_span))
-        sx, sy, sr = circle_uncertainty(xs, ys, circle)
-        scale_rel = sr / circle.radius if circle.radius > 0 else np.inf
-        # the axle off sideways by dx turns the vertical through it, theta's zero, by dx / radius
-        uncertainty = {"axle_sigma_px": [sx, sy], "radius_sigma_px": sr, "theta_scale_rel": scale_rel,
-                       "zero_sigma_rad": sx / circle.radius if circle.radius > 0 else np.inf}
-        if not scale_rel <= MAX_SCALE_REL:
-            if span < MIN_ARC_SPAN_DEG:
-                in_frame = _in_frame(circle.xc, circle.yc, art.provenance.extra)
-                raise TrackingError(
-                    f"the marker's arc spans {span:.1f} deg and bends too little to locate the axle (radius "
-                    f"{circle.radius:.0f} +- {sr:.0f} px): film a wider swing or more swings"
-                    + (", or pass --axle X,Y" if in_frame else ""), path=track)
-            raise TrackingError(
-                f"the track is no arc about one axle (circle residual {circle.rms:.1f} px rms, radius "
-                f"{circle.radius:.0f} +- {sr:.0f} px): the tracked point is not the bob, or the bob swings out "
-                f"of the image plane; track again with --roi X,Y,W,H around the bob, filmed square to its swing",
-                path=track)
-        if span < MIN_ARC_SPAN_DEG:
-            log.warning("%s: the marker's arc spans %.1f deg: the axle is located to +-%.1f px (radius %.0f +- %.1f "
-                        "px), so theta carries a scale uncertainty of %.1f %%", track, span, max(sx, sy),
-                        circle.radius, sr, 100 * scale_rel)
-        axle = (circle.xc, circle.yc)
-    res = theta_from_track(df["t"].to_numpy(float), df["x"].to_numpy(float), df["y"].to_numpy(float), ok,
-                           axle=axle, rest_seconds=ac.rest_seconds, rest_omega_max=ac.rest_omega_max,
-                           circle=circle)
-    out_df = pd.DataFrame({"t": res.t, "theta": res.theta, "ok": res.ok})
-    lens_used = art.provenance.config.get("lens")
-    extra = {"axle_source": "config" if ac.axle else "circle_fit", **res.to_dict(),
-             "lens": dict(lens_used) if isinstance(lens_used, dict) else {},
-             "lens_check": check.to_dict() if check is not None else {"verdict": "not checked", "reason": (
-                 "lens_check = off" if ac.lens_check == "off" else "the track records no lens or frame size")}}
-    if circle is not None:
-        extra["circle_rms_px"] = circle.rms
-        extra["axle_uncertainty"] = uncertainty
-    write_artifact(out_df, out, "angle", provenance=Provenance(stage="angle", config=sections, inputs=inputs,
-                                                               extra=extra))
-    facts = {"axle": axle, "zero_reference": res.zero_reference,
-             "circle_rms_px": circle.rms if circle is not None else None,
-             "lens_verdict": check.verdict if check is not None else "not checked"}
-    return StageOutput((out,), facts=facts)
+    table = angle_table(art.data, options=config.angle, track_extra=art.provenance.extra,
+                        track_config=art.provenance.config, source=track)
+    write_artifact(table.frame, out, "angle", provenance=Provenance(stage="angle", config=sections, inputs=inputs,
+                                                                    extra=table.extra))
+    return StageOutput((out,), facts=table.facts)
