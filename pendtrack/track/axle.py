@@ -176,15 +176,6 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
     res = theta_from_track(df["t"].to_numpy(float), df["x"].to_numpy(float), df["y"].to_numpy(float), ok,
                            axle=axle, rest_seconds=ac.rest_seconds, rest_omega_max=ac.rest_omega_max,
                            circle=circle)
-    out_df = pd.DataFrame({"t": res.t, "theta": res.theta, "ok": res.ok})
-    lens_used = track_config.get("lens")
-    extra = {"axle_source": "config" if ac.axle else "circle_fit", **res.to_dict(),
-             "lens": dict(lens_used) if isinstance(lens_used, dict) else {},
-             "lens_check": check.to_dict() if check is not None else {"verdict": "not checked", "reason": (
-                 "lens_check = off" if ac.lens_check == "off" else "the track records no lens or frame size")}}
-    if circle is not None:
-        extra["circle_rms_px"] = circle.rms
-        extra["axle_uncertainty"] = uncertainty
     frame = pd.DataFrame({"t": res.t, "theta": res.theta, "ok": res.ok})
     lens_used = track_config.get("lens")
     extra = {"axle_source": "config" if ac.axle else "circle_fit", **res.to_dict(),
