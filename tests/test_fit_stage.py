@@ -51,7 +51,8 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
     data = read_json_artifact(out / "fit.json", required=FIT_JSON_KEYS)
     extras = {"initial_state", "cost", "n_params", "n_starts", "n_accepted", "accept_ratio", "window", "omega0_hat",
               "memory_s", "full_history", "hac_lag", "stderr_reliable", "u_region", "stderr_naive",
-              "stderr_bootstrap", "stderr_low", "stderr_high", "estimates", "fixed", "covariance", "start_costs",
+              "stderr_bootstrap", "stderr_low", "stderr_high", "stderr_scale", "estimates", "fixed", "covariance",
+              "start_costs",
               "message", "provenance",
               "flags", "findings", "trustworthy",
               "measurement", "fitted_model"}  # issue #14: the model's measurement terms, the model fitted

@@ -151,3 +151,50 @@ def test_the_filter_comes_from_the_kinematics_provenance() -> None:
     assert (obs.savgol_window, obs.savgol_order) == (window_points(0.2, 1 / 120.0, 2), 2)
     assert obs.savgol_window != 31
     assert observation_from({}, {}, t).savgol_window == Observation().savgol_window
+
+
+def test_the_scales_first_order_shift_is_the_refit_of_a_rescaled_record():
+    # the axle off along the radius scales every theta by 1 + rel; released at 2.5 rad the period rests on the
+    # amplitude (T ~ T0 (1 + theta0^2 / 16)), so a 1 % larger angle moves Omega0 by ~0.5 %: the first-order shift
+    # must be what refitting the rescaled record from the minimum gives (within 5 %: second order in rel)
+    from dataclasses import replace
+
+    from pendtrack.fitting.estimate import estimate
+    from pendtrack.fitting.fitter import fit_setup
+    from pendtrack.fitting.leastsq.cost import Observation
+    from pendtrack.fitting.leastsq.lm import levenberg_marquardt
+    from pendtrack.fitting.leastsq.samples import Record
+    from pendtrack.fitting.uncertainty import scale_shift
+    from pendtrack.kinematics import savgol_kinematics
+
+    t, theta = _theta()
+    kin = savgol_kinematics(t, theta, np.ones(t.size, bool), window_s=25 / 120, order=3)
+    rec = Record(kin.t, kin.theta, kin.omega, alpha=kin.alpha, ok=kin.ok,
+                 observation=Observation(savgol_window=25, savgol_order=3))
+    setup = estimate(get_model("standard"), rec, options=FAST.fit, model_options=FAST.models)
+    fit = fit_setup(setup, options=FAST.fit, model_options=FAST.models, seed=0, workers=1, theta_scale_rel=0.01)
+    pb = setup.problem
+    x = np.array([{**fit.params, **fit.initial_state}[n].value for n in pb.names])
+    scaled = replace(pb, theta=pb.theta * 1.01, omega=pb.omega * 1.01)
+    refit = levenberg_marquardt(scaled.residuals, lambda xx, r: scaled.jacobian(xx, central=True, method="fd"), x,
+                                lower=pb.lower, upper=pb.upper)
+    j = pb.names.index("Omega0")
+    assert refit.status > 0 and abs(refit.x[j] - x[j]) > 1e-3  # the amplitude's share of the period: it moves
+    assert fit.params["Omega0"].stderr_scale == pytest.approx(abs(refit.x[j] - x[j]), rel=0.05)
+    assert np.array_equal(scale_shift(pb, x, 0.0), np.zeros(x.size))
+
+
+def test_every_parameter_carries_the_axles_share_of_the_scale(vertical_fit, tmp_path):
+    # the fit stage reads the angle's theta_scale_rel and adds each parameter's shift under it to its stderr
+    rel = 0.01
+    path = _angle(tmp_path / "angle.parquet", "vertical", axle_uncertainty={"theta_scale_rel": rel})
+    assert read_record(path).theta_scale_rel == rel
+    out = fit_stage(path, out_dir=tmp_path / "fit", config=FAST, models=("standard",), progress=False)
+    own = read_json_artifact(vertical_fit[0] / "fit_standard.json", required=FIT_JSON_KEYS)
+    rec = json.loads((tmp_path / "fit" / "fit_standard.json").read_text())
+    shift, p = rec["stderr_scale"], rec["params"]
+    assert shift["Omega0"] > 0 and all(v == 0.0 for v in own["stderr_scale"].values())
+    for name in p:
+        assert p[name]["value"] == pytest.approx(own["params"][name]["value"], abs=1e-12)  # the same fit ...
+        assert p[name]["stderr"] == pytest.approx(np.hypot(own["params"][name]["stderr"], shift[name]), rel=1e-9)
+    assert out.facts["theta_scale_rel"] == rel and vertical_fit[1].facts["theta_scale_rel"] == 0.0

@@ -41,7 +41,7 @@ from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.refine import refine
 from pendtrack.fitting.result import FitResult, build_result
 from pendtrack.fitting.search import search
-from pendtrack.fitting.uncertainty import assess
+from pendtrack.fitting.uncertainty import assess, scale_shift
 from pendtrack.parallel import ProcessPool
 
 
@@ -71,7 +71,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
               extra_starts: Sequence[Mapping[str, float]] = (), seed: int | None = None,
               workers: int | None = None, simulator: Simulator | None = None, method: str = "auto",
               on_progress: Callable[[int], None] | None = None, source: str = "the data",
-              pool: ProcessPool | None = None) -> FitResult:
+              pool: ProcessPool | None = None, theta_scale_rel: float = 0.0) -> FitResult:
     """Fit ``model`` to a record by output error, with the paper's uncertainties and better ones.
 
     Parameters
@@ -122,6 +122,10 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         Worker processes for the starts, kept by the caller across fits
         (:func:`pendtrack.fitting.leastsq.ladder.search_pool`: a fit stage's models start them once), also
         running the profile sigmas' sides; default: ``workers`` processes started for the search.
+    theta_scale_rel : float
+        Relative uncertainty of theta's scale [1] (the angle stage's ``theta_scale_rel``: the
+        axle's radius uncertainty); each parameter's first-order shift under it is
+        ``ParamEstimate.stderr_scale`` (:func:`pendtrack.fitting.uncertainty.scale_shift`).
 
     Returns
     -------
@@ -143,12 +147,14 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     setup = estimate(model, record, options=options, model_options=model_options, fixed=fixed, initial=initial,
                      simulator=simulator, method=method)
     return fit_setup(setup, options=options, model_options=model_options, seed=seed, workers=workers,
-                     extra_starts=extra_starts, on_progress=on_progress, pool=pool, t_wall=t_wall)
+                     extra_starts=extra_starts, on_progress=on_progress, pool=pool, t_wall=t_wall,
+                     theta_scale_rel=theta_scale_rel)
 
 
 def fit_setup(setup: Setup, *, options: FitConfig, model_options: ModelsConfig, seed: int, workers: int,
               extra_starts: Sequence[Mapping[str, float]] = (), on_progress: Callable[[int], None] | None = None,
-              pool: ProcessPool | None = None, t_wall: float | None = None) -> FitResult:
+              pool: ProcessPool | None = None, t_wall: float | None = None, theta_scale_rel: float = 0.0
+              ) -> FitResult:
     """Steps 2-5 of a fit (search, refine, uncertainty, result) from an estimate step's :class:`Setup`.
 
     The arguments are :func:`fit_model`'s (resolved: ``seed``, ``workers`` given); ``t_wall`` is the
@@ -163,7 +169,8 @@ def fit_setup(setup: Setup, *, options: FitConfig, model_options: ModelsConfig, 
     unc = assess(setup.problem, best, found, options=options, seed=seed, workers=workers, on_progress=on_progress,
                  pool=pool)
     return build_result(setup, found, best, unc, options=options, model_options=model_options, seed=seed,
-                        runtime_s=time.monotonic() - t_wall)
+                        runtime_s=time.monotonic() - t_wall,
+                        scale=scale_shift(setup.problem, best.x, theta_scale_rel) if theta_scale_rel else None)
 
 
 __all__ = ["check_options", "fit_model", "fit_setup"]

@@ -8,8 +8,8 @@ content (one model's record, or the container of several), the curves of fit.par
 stage's facts. The decisions made here:
 
 * the ``offset`` term (:func:`fits_offset`): added to every model when theta's zero was not
-  measured (``[fit] offset = "auto"``), or always, or never; theta_off's standard error includes the
-  axle's share of the zero (:func:`with_zero_sigma`);
+  measured (``[fit] offset = "auto"``), or always, or never; every standard error includes the
+  axle's uncertainty (:func:`with_axle_uncertainty`: its share of theta's zero and of its scale);
 * the data's filter (:func:`observation_from`), from the kinematics provenance;
 * the selected model: the trustworthy fit (converged, no parameter flagged) with the lowest BIC,
   or if none is, the converged one (same data and cost for every model);
@@ -20,6 +20,7 @@ stage's facts. The decisions made here:
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field, replace
@@ -34,7 +35,7 @@ from pendtrack.fitting.fitter import fit_model
 from pendtrack.fitting.leastsq.cost import Observation
 from pendtrack.fitting.leastsq.samples import check_record
 from pendtrack.fitting.predict import predict
-from pendtrack.fitting.result import FitResult, _num
+from pendtrack.fitting.result import FitResult, ParamEstimate, _num
 
 log = logging.getLogger(__name__)
 
@@ -214,6 +215,8 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         raise FitError("the kinematics file has no samples", path=source)
     obs = observation_from(provenance_extra, provenance_config, t, source=source)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=source)  # fail before any progress bar
+    scale = provenance_extra.get("theta_scale_rel")  # the axle's radius uncertainty over the radius [1]
+    scale_rel = float(scale) if isinstance(scale, (int, float)) and not isinstance(scale, bool) and scale > 0 else 0.0
     results: dict[str, FitResult] = {}
     # the models' searches (and their profile sigmas) share one set of worker processes, started now (their
     # imports and kernels load while the first model's estimates run) rather than one set per model
@@ -223,12 +226,13 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
             with (progress(name) if progress else nullcontext()) as advance:
                 results[name] = fit_model(model_objs[name], t, theta, omega, options=options,
                                           model_options=model_options, alpha=alpha, ok=ok, observation=obs,
-                                          on_progress=advance, source=source, pool=workers)
+                                          on_progress=advance, source=source, pool=workers,
+                                          theta_scale_rel=scale_rel)
     finally:
         if workers is not None:
             workers.shutdown(wait=True, cancel_futures=True)
 
-    results = {n: with_zero_sigma(r, provenance_extra.get("zero_sigma_rad")) for n, r in results.items()}
+    results = {n: with_axle_uncertainty(r, provenance_extra.get("zero_sigma_rad")) for n, r in results.items()}
     # "model" is the model asked for (file names, batch columns and the report key on it), "fitted_model"
     # the one fitted (e.g. "classic+offset")
     records = {n: {**r.to_dict(), "model": n, "fitted_model": r.model} for n, r in results.items()}
@@ -246,6 +250,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         "observation": {"savgol_window": obs.savgol_window, "savgol_order": obs.savgol_order},
         "zero_reference": zero,
         "zero_sigma_rad": _num(provenance_extra.get("zero_sigma_rad")),
+        "theta_scale_rel": scale_rel,
     }
     if len(names) == 1:
         combined = records[names[0]]
@@ -259,24 +264,34 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
                      curves=_curves(results, model_objs, t, theta), facts=facts)
 
 
-def with_zero_sigma(result: FitResult, zero_sigma: Any) -> FitResult:
-    """``result`` with the axle's share of theta's zero added (in quadrature) to theta_off's standard errors.
+def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
+    """``result`` with the axle's uncertainty in its standard errors (in quadrature).
 
-    A fitted ``theta_off`` is theta's zero as the track's axle sets it: the axle off sideways by
-    ``dx`` turns the vertical through it by ``dx / radius``, the same in every sample, which the
-    fit's residuals cannot reveal -- their standard error counts the scatter of theta about the
-    model only. ``zero_sigma`` [rad] (angle.parquet's ``zero_sigma_rad``, from the axle's
-    uncertainty, :func:`pendtrack.track.circle.circle_uncertainty`) is that share; ``stderr``,
-    ``stderr_low`` and ``stderr_high`` of theta_off include it (``stderr_naive`` and
-    ``stderr_bootstrap`` stay the fit's own). Unchanged without ``theta_off`` or a number.
+    theta from a track is measured about the fitted axle, whose uncertainty moves every sample
+    alike, so the fit's residuals cannot reveal it: their standard errors count the scatter of
+    theta about the model only.
+
+    * The axle off sideways by ``dx`` turns theta's zero by ``dx / radius``: ``zero_sigma``
+      [rad] (angle.parquet's ``zero_sigma_rad``, :func:`pendtrack.track.circle.circle_uncertainty`)
+      is added to a fitted ``theta_off``.
+    * The axle off along the radius scales theta: each parameter's shift under that scale
+      (``stderr_scale``, computed in the fit from ``theta_scale_rel``) is added to its own.
+
+    ``stderr``, ``stderr_low`` and ``stderr_high`` include them (``stderr_naive`` and
+    ``stderr_bootstrap`` stay the fit's own).
     """
-    if "theta_off" not in result.params or isinstance(zero_sigma, bool) or not isinstance(zero_sigma, (int, float)):
-        return result
-    p = result.params["theta_off"]
-    zs = float(zero_sigma)
-    p = replace(p, stderr=float(np.hypot(p.stderr, zs)), stderr_low=float(np.hypot(p.stderr_low, zs)),
-                stderr_high=float(np.hypot(p.stderr_high, zs)))
-    return replace(result, params={**result.params, "theta_off": p})
+    zs = float(zero_sigma) if isinstance(zero_sigma, (int, float)) and not isinstance(zero_sigma, bool) else 0.0
+
+    def widened(name: str, p: ParamEstimate) -> ParamEstimate:
+        extra = float(np.hypot(p.stderr_scale if math.isfinite(p.stderr_scale) else 0.0,
+                               zs if name == "theta_off" else 0.0))
+        if extra == 0.0:
+            return p
+        return replace(p, stderr=float(np.hypot(p.stderr, extra)), stderr_low=float(np.hypot(p.stderr_low, extra)),
+                       stderr_high=float(np.hypot(p.stderr_high, extra)))
+
+    return replace(result, params={n: widened(n, p) for n, p in result.params.items()},
+                   initial_state={n: widened(n, p) for n, p in result.initial_state.items()})
 
 
 def _model_facts(r: FitResult) -> dict[str, Any]:

@@ -8,7 +8,7 @@ fit.json of one model has exactly the issue's keys::
 plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u_paper} form),
 ``cost``, ``n_params``, ``n_starts``, ``n_accepted``, ``accept_ratio``, ``window``, ``omega0_hat``,
 ``memory_s``, ``full_history``, ``hac_lag``, ``stderr_reliable``, ``u_region``, ``stderr_naive``,
-``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``estimates``, ``covariance``,
+``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``stderr_scale``, ``estimates``, ``covariance``,
 ``start_costs``, ``message``, ``flags``, ``findings``, ``trustworthy``,
 ``measurement`` (the model's measurement terms, e.g. ``["offset"]``; their parameters, e.g.
 ``theta_off``, are in ``params`` like any other).
@@ -286,6 +286,10 @@ class ParamEstimate:
         The data-derived initial estimate [same unit].
     fixed : bool
         Held at ``value`` (not fitted).
+    stderr_scale : float
+        The shift of ``value`` under theta's scale uncertainty (the axle's radius uncertainty,
+        :func:`pendtrack.fitting.uncertainty.scale_shift`) [same unit]; 0 when none was given.
+        The fit stage adds it to ``stderr`` in quadrature.
     """
 
     value: float
@@ -298,6 +302,7 @@ class ParamEstimate:
     stderr_high: float = math.nan
     estimate: float = math.nan
     fixed: bool = False
+    stderr_scale: float = 0.0
 
     def core(self) -> dict[str, float | None]:
         return {"value": _num(self.value), "stderr": _num(self.stderr), "u_paper": _num(self.u_paper)}
@@ -466,6 +471,7 @@ class FitResult:
             "stderr_bootstrap": {k: _num(v.stderr_bootstrap) for k, v in all_params.items()},
             "stderr_low": {k: _num(v.stderr_low) for k, v in all_params.items()},
             "stderr_high": {k: _num(v.stderr_high) for k, v in all_params.items()},
+            "stderr_scale": {k: _num(v.stderr_scale) for k, v in all_params.items()},
             "estimates": {k: _num(v.estimate) for k, v in all_params.items()},
             "fixed": [k for k, v in all_params.items() if v.fixed],
             "covariance": {"names": list(self.fitted_names),
@@ -480,7 +486,8 @@ class FitResult:
 
 
 def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertainty, *, options: FitConfig,
-                 model_options: ModelsConfig, seed: int, runtime_s: float) -> FitResult:
+                 model_options: ModelsConfig, seed: int, runtime_s: float,
+                 scale: np.ndarray | None = None) -> FitResult:
     """The :class:`FitResult` of the refined best fit (step 5 of a fit).
 
     Adds what the steps before did not compute: rms, AIC/BIC (module docstring) and the
@@ -499,6 +506,9 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         Seed of the start draws (recorded).
     runtime_s : float
         Wall time of the fit [s].
+    scale : ndarray, optional
+        Each fitted parameter's shift under theta's scale uncertainty
+        (:func:`pendtrack.fitting.uncertainty.scale_shift`): ``ParamEstimate.stderr_scale``.
     """
     problem = setup.problem
     model = problem.model
@@ -547,7 +557,8 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
                              u_region=float(unc.u_region[j]), stderr_naive=float(unc.stderr_naive[j]),
                              stderr_bootstrap=float(unc.stderr_bootstrap[j]), stderr_low=float(unc.stderr_low[j]),
                              stderr_high=float(unc.stderr_high[j]),
-                             estimate=float(setup.estimates.get(name, math.nan)))
+                             estimate=float(setup.estimates.get(name, math.nan)),
+                             stderr_scale=float(scale[j]) if scale is not None else 0.0)
 
     return FitResult(
         model=str(model.name),

@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from concurrent.futures import Executor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -108,6 +108,45 @@ def andrews_lag(scores: np.ndarray) -> int:
     alpha1 = num / den
     lag = int(math.ceil(1.1447 * (alpha1 * n) ** (1 / 3)))
     return int(min(max(lag, 1), n // 4))
+
+
+def scale_shift(problem: FitProblem, x: np.ndarray, rel: float) -> np.ndarray:
+    """How far the fit moves when the measured angle's scale is off by ``rel`` [each parameter's unit].
+
+    theta from a track is ``atan2`` about the fitted axle: an axle off vertically by ``d`` scales
+    every angle by about ``1 + d / radius`` (the angle stage's ``theta_scale_rel``, the radius'
+    relative uncertainty). The same factor in every sample is a systematic error the residuals
+    cannot show, so the sandwich does not count it. Its effect on the minimum is, to first order
+    (the Gauss-Newton step of the data's change), ``dx = -(J^T J)^-1 J^T dr`` with ``dr`` the
+    residuals' change when theta and omega are scaled by ``1 + rel`` at the fitted ``x``.
+
+    Parameters
+    ----------
+    problem : FitProblem
+        The whole-window problem.
+    x : ndarray
+        The fitted vector.
+    rel : float
+        Relative scale uncertainty of theta [1]; 0 gives zeros.
+
+    Returns
+    -------
+    ndarray
+        ``|dx|``, per fitted parameter (0 for one on a bound; NaN where the Jacobian is not finite).
+    """
+    if not (math.isfinite(rel) and rel > 0):
+        return np.zeros(x.size)
+    scaled = replace(problem, theta=problem.theta * (1.0 + rel), omega=problem.omega * (1.0 + rel))
+    dr = scaled.residuals(x) - problem.residuals(x)
+    jac = problem.jacobian(x, central=True, method="fd")
+    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(dr))):
+        return np.full(x.size, np.nan)
+    # a parameter on a bound stays there (the refit of a rescaled record could not leave it either)
+    free = (x > problem.lower) & (x < problem.upper)
+    dx = np.zeros(x.size)
+    if free.any():
+        dx[free] = np.linalg.lstsq(jac[:, free], -dr, rcond=None)[0]
+    return np.abs(dx)
 
 
 def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None) -> tuple[np.ndarray, int]:

@@ -60,7 +60,7 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     artifact : Artifact
         Columns t, theta, omega, alpha, ok (segment); provenance with the Savitzky-Golay facts
         (``window_points``, ``order``, ``h``), ``zero_reference`` (:attr:`pendtrack.tables.Record.zero_reference`)
-        and ``zero_sigma_rad`` (:attr:`pendtrack.tables.Record.zero_sigma_rad`).
+        and the axle's shares ``zero_sigma_rad``, ``theta_scale_rel`` (:meth:`pendtrack.tables.Record.axle_share`).
     sections : dict
         To add to the consumer's provenance config: ``kinematics`` (when computed here),
         ``input`` (how it was read, when it was not a kinematics artifact used as it is) and
@@ -78,7 +78,7 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     sections |= {**config.sections("kinematics"), "input": rec.info}
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
                       extra={**kin.info, "zero_reference": rec.zero_reference,
-                             "zero_sigma_rad": rec.zero_sigma_rad})
+                             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -115,7 +115,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         ``resampled`` grid, ``warnings``); ``zero_reference``: where theta's zero comes from
         (:attr:`pendtrack.tables.Record.zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not
         measured); ``zero_sigma_rad``: its uncertainty from the axle's (:attr:`pendtrack.tables.Record.zero_sigma_rad`;
-        part of theta_off's stderr).
+        part of theta_off's stderr); ``theta_scale_rel``: theta's relative scale uncertainty from the axle's (part of every
+        parameter's stderr).
 
     Raises
     ------
@@ -137,7 +138,7 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         return StageOutput((out,), skipped=True, facts=dict(record.get("extra", {})))
     result = kinematics_table(rec.t, rec.theta, rec.ok, options=config.kinematics, source=angle)
     facts = {**result.facts, "input": rec.info, "zero_reference": rec.zero_reference,
-             "zero_sigma_rad": rec.zero_sigma_rad}
+             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel}
     write_artifact(result.frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))
     return StageOutput((out,), facts=facts)

@@ -127,16 +127,25 @@ class Record:
             return value if isinstance(value, str) and value else "unknown"
         return "table"
 
-    @property
-    def zero_sigma_rad(self) -> float | None:
-        """The standard uncertainty [rad] of theta's zero from the axle's sideways uncertainty (angle.parquet's
-        ``axle_uncertainty.zero_sigma_rad``, passed on by kinematics.parquet as ``zero_sigma_rad``); None when
-        the record does not carry one (a given axle, a table, the truth)."""
+    def axle_share(self, key: str) -> float | None:
+        """A share of the axle's uncertainty in theta: ``"zero_sigma_rad"`` (of its zero [rad]) or
+        ``"theta_scale_rel"`` (of its scale [1]); angle.parquet's ``axle_uncertainty`` holds them,
+        kinematics.parquet passes them on. None when the record does not carry it (a given axle, a
+        table, the truth)."""
         prov = self.provenance
         extra = (prov.extra or {}) if prov is not None and self.kind in ("angle", "kinematics") else {}
-        value = (extra.get("zero_sigma_rad") if self.kind == "kinematics"
-                 else (extra.get("axle_uncertainty") or {}).get("zero_sigma_rad"))
+        value = extra.get(key) if self.kind == "kinematics" else (extra.get("axle_uncertainty") or {}).get(key)
         return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+
+    @property
+    def zero_sigma_rad(self) -> float | None:
+        """The standard uncertainty [rad] of theta's zero from the axle's sideways uncertainty (:meth:`axle_share`)."""
+        return self.axle_share("zero_sigma_rad")
+
+    @property
+    def theta_scale_rel(self) -> float | None:
+        """The relative uncertainty [1] of theta's scale from the axle's radius uncertainty (:meth:`axle_share`)."""
+        return self.axle_share("theta_scale_rel")
 
 
 def is_video(path: str | Path) -> bool:
