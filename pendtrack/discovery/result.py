@@ -91,8 +91,20 @@ class FitSummary:
                 "message": self.message, "runtime_s": _num(self.runtime_s), "flags": dict(self.flags)}
 
 
+class _AddsTerms:
+    """What a candidate and a step share: the terms they add."""
+
+    effect: str
+    terms: tuple[str, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The terms added (``terms``, or the one ``effect``)."""
+        return self.terms or (self.effect,)
+
+
 @dataclass(frozen=True)
-class Candidate:
+class Candidate(_AddsTerms):
     """One candidate model judged against the current one.
 
     Attributes
@@ -166,11 +178,6 @@ class Candidate:
     stability: float = math.nan
 
     @property
-    def names(self) -> tuple[str, ...]:
-        """The terms added (``terms``, or the one ``effect``)."""
-        return self.terms or (self.effect,)
-
-    @property
     def earns_keep(self) -> bool:
         """Every rule passed: the test, BIC, a lower whole-record residual, an unflagged fit."""
         return self.passes_bic and self.passes_heldout and self.lowers_rms and not self.flags and not self.error
@@ -228,7 +235,7 @@ def _term_params(terms: str | tuple[str, ...]) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
-class Step:
+class Step(_AddsTerms):
     """One accepted extension and what it gained.
 
     Attributes
@@ -270,11 +277,6 @@ class Step:
     test: str = "heldout"
     margins: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     stability: float = math.nan
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The terms added (``terms``, or the one ``effect``)."""
-        return self.terms or (self.effect,)
 
     @property
     def borderline(self) -> bool:

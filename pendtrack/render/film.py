@@ -23,12 +23,9 @@ class FrameRenderer:
 
     Parameters
     ----------
-    scene : Scene
-        Camera and apparatus.
-    alley : bool
-        Draw the alley's slabs.
-    gradient, vignetting : float
-        Lighting (see :func:`pendtrack.render.backdrop.illumination`).
+    scene, alley, gradient, vignetting
+        The scene, its alley and its lighting, as :func:`pendtrack.render.backdrop.build_backdrop`
+        takes them.
     noise_sigma : float
         Sensor noise, standard deviation in 8-bit levels (0: none).
     seed : int
