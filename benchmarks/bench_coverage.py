@@ -46,7 +46,6 @@ import argparse
 import json
 import math
 import os
-import platform
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -253,17 +252,6 @@ def run(models: Sequence[str], records: int, settings: Mapping[str, Any], *, jso
     return [done[f"{m}-{s}"] for m in models for s in range(records)]
 
 
-def cpu_model() -> str:
-    """The CPU's model name (Linux /proc/cpuinfo), else the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
 def table_text(summary: Mapping[str, Any]) -> str:
     """The coverage table as Markdown (shares in %, +- one binomial standard error)."""
     rows = ["| model | parameter | method | n | 68 % interval covers | 95 % interval covers | rms z |",
@@ -275,6 +263,12 @@ def table_text(summary: Mapping[str, Any]) -> str:
                             f"{100 * r['se68']:.0f} | {100 * r['cover95']:.0f} +- {100 * r['se95']:.0f} | "
                             f"{r['rms_z']:.2f} |")
     return "\n".join(rows)
+
+
+def fail(message: str) -> None:
+    """One line ``error: ...`` on stderr, exit code 2 (the project's bad-input rule)."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -291,8 +285,8 @@ def main(argv: list[str] | None = None) -> None:
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     unknown = [m for m in models if m not in CENTRES]
     if unknown or args.records < 1 or args.seconds <= 0 or args.fps <= 0 or args.starts < 0:
-        sys.exit(f"error: bad arguments (models {unknown or models}, records {args.records}, seconds {args.seconds}, "
-                 f"fps {args.fps}, starts {args.starts})")
+        fail(f"bad arguments (models {unknown or models}, records {args.records}, seconds {args.seconds}, "
+             f"fps {args.fps}, starts {args.starts})")
     settings = {"seconds": args.seconds, "fps": args.fps, "starts": args.starts, "bootstrap": args.bootstrap}
     jsonl = args.out.with_suffix(".jsonl")
 
@@ -303,7 +297,9 @@ def main(argv: list[str] | None = None) -> None:
     try:
         lines = run(models, args.records, settings, jsonl=jsonl, workers=args.workers, echo=echo)
     except ValueError as exc:
-        sys.exit(f"error: {exc}")
+        fail(str(exc))
+    from bench_run import cpu_model  # this folder's: the CPU named as the other benchmarks name it
+
     summary = coverage(lines)
     payload = {"command": " ".join(["benchmarks/bench_coverage.py", *(argv if argv is not None else sys.argv[1:])]),
                "cpu": cpu_model(), "cores": os.cpu_count(), "settings": settings, "records": args.records,
