@@ -252,12 +252,12 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
             f"trades off against G2")
 
 
-#: The uncertainty fit.json tells a user to quote (:func:`quote_method`). benchmarks/bench_coverage.py, fits of
-#: 20-s records with the render's tracking noise: the sandwich's 68 % and 95 % intervals cover the truth as they
-#: should for Omega0 and every damping parameter of classic, OPA and fractional; the profile sigmas do not where
-#: another parameter sits on its optimiser bound (classic's C0 at 0: C3's and p's profile sigmas come out 10-40x
-#: below the sandwich, a constrained profile -- 87 % of their 95 % intervals covered), and u_paper measures the
-#: spread of the starts, not the noise (a few % covered when the starts meet).
+#: The uncertainty fit.json tells a user to quote (:func:`quote_method`), from benchmarks/bench_coverage.py (40
+#: seeded 20-s records per model with the render's tracking noise): the sandwich's
+#: 95 % intervals cover the truth 92-98 % of the time for Omega0 and every damping parameter of classic and OPA,
+#: the profile sigmas' only 87-89 % for classic's C0, C3 and p -- where another parameter sits on its optimiser
+#: bound (C0 at 0) the profile is a constrained one and comes out 9-40x below the sandwich -- and u_paper,
+#: the spread of the starts, covers 0-33 % (the starts meet at one minimum).
 QUOTE = "stderr"
 
 
@@ -361,7 +361,7 @@ class FitResult:
     accept_ratio : float
         5/4 in the paper.
     hac_lag : int
-        Bartlett lag of the sandwich covariance [samples].
+        Truncation lag of the sandwich covariance's meat [samples].
     covariance : ndarray
         Sandwich covariance of the fitted vector, order ``fitted_names``.
     fitted_names : tuple of str

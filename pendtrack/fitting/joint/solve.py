@@ -187,7 +187,7 @@ def joint_covariance(stacked: StackedProblem, best: StartOutcome, *,
     -------
     covariance : ndarray, shape (p, p)
     lags : list of int
-        Each run's Bartlett lag [samples].
+        Each run's truncation lag of the sandwich's meat [samples].
     stderr_naive, u_region : ndarray
         The textbook standard errors and the 5/4 region's half-widths (comparison only).
     """
