@@ -253,11 +253,11 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
 
 
 #: The uncertainty fit.json tells a user to quote (:func:`quote_method`), from benchmarks/bench_coverage.py (40
-#: seeded 20-s records per model with the render's tracking noise): the sandwich's
-#: 95 % intervals cover the truth 92-98 % of the time for Omega0 and every damping parameter of classic and OPA,
-#: the profile sigmas' only 87-89 % for classic's C0, C3 and p -- where another parameter sits on its optimiser
-#: bound (C0 at 0) the profile is a constrained one and comes out 9-40x below the sandwich -- and u_paper,
-#: the spread of the starts, covers 0-33 % (the starts meet at one minimum).
+#: seeded 20-s records per model with the render's tracking noise): the sandwich's 95 % intervals cover the truth
+#: 92-100 % of the time for Omega0 and every damping parameter of classic, OPA and fractional; the profile sigmas'
+#: only 87-89 % for classic's C0, C3 and p -- where another parameter sits on its optimiser bound (C0 at 0) the
+#: profile is a constrained one and comes out 9-40x below the sandwich -- and u_paper, the spread of the starts,
+#: 0-33 % for classic and OPA (their starts meet at one minimum).
 QUOTE = "stderr"
 
 
