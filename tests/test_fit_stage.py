@@ -55,7 +55,8 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
               "start_costs",
               "message", "provenance",
               "flags", "findings", "trustworthy",
-              "measurement", "fitted_model"}  # issue #14: the model's measurement terms, the model fitted
+              "measurement", "fitted_model",  # issue #14: the model's measurement terms, the model fitted
+              "quote"}  # issue #29: the uncertainty to quote per parameter
     assert set(data) == set(FIT_JSON_KEYS) | extras
     assert data["model"] == "standard" and data["converged"] is True and data["n_starts"] == 3
     assert set(data["params"]) == set(STANDARD)

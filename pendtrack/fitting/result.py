@@ -11,7 +11,8 @@ plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u
 ``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``stderr_scale``, ``estimates``, ``covariance``,
 ``start_costs``, ``message``, ``flags``, ``findings``, ``trustworthy``,
 ``measurement`` (the model's measurement terms, e.g. ``["offset"]``; their parameters, e.g.
-``theta_off``, are in ``params`` like any other).
+``theta_off``, are in ``params`` like any other), ``quote`` (:func:`quote_method`: per parameter
+the uncertainty a user should quote, ``"stderr"``, or null where there is none).
 Non-finite numbers are written as ``null``.
 
 Flags and findings
@@ -251,6 +252,25 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
             f"trades off against G2")
 
 
+#: The uncertainty fit.json tells a user to quote (:func:`quote_method`), from benchmarks/bench_coverage.py (40
+#: seeded 20-s records per model with the render's tracking noise): the sandwich's 95 % intervals cover the truth
+#: 92-100 % of the time for Omega0 and every damping parameter of classic, OPA and fractional; the profile sigmas'
+#: only 87-89 % for classic's C0, C3 and p -- where another parameter sits on its optimiser bound (C0 at 0) the
+#: profile is a constrained one and comes out 9-40x below the sandwich -- and u_paper, the spread of the starts,
+#: 0-33 % for classic and OPA (their starts meet at one minimum).
+QUOTE = "stderr"
+
+
+def quote_method(p: "ParamEstimate") -> str | None:
+    """Which uncertainty of ``p`` a user should quote: :data:`QUOTE` where it is finite and positive, else None.
+
+    A fixed parameter (not fitted) has none.
+    """
+    if p.fixed or not (math.isfinite(p.stderr) and p.stderr > 0):
+        return None
+    return QUOTE
+
+
 def _num(x: Any) -> float | None:
     """A JSON-safe float: None for NaN/inf/None."""
     if x is None:
@@ -346,7 +366,7 @@ class FitResult:
     accept_ratio : float
         5/4 in the paper.
     hac_lag : int
-        Bartlett lag of the sandwich covariance [samples].
+        Truncation lag of the sandwich covariance's meat [samples].
     covariance : ndarray
         Sandwich covariance of the fitted vector, order ``fitted_names``.
     fitted_names : tuple of str
@@ -431,6 +451,10 @@ class FitResult:
         """Number of fitted parameters, initial state included."""
         return len(self.fitted_names)
 
+    def quote(self) -> dict[str, str | None]:
+        """Parameter name -> the uncertainty to quote (:func:`quote_method`), model parameters and initial state."""
+        return {k: quote_method(v) for k, v in {**self.params, **self.initial_state}.items()}
+
     def require_converged(self) -> "FitResult":
         """Return self, or raise :class:`FitError` if the fit did not converge."""
         if not self.converged:
@@ -482,6 +506,7 @@ class FitResult:
             "findings": dict(self.findings),
             "trustworthy": self.trustworthy,
             "measurement": list(self.measurement),
+            "quote": self.quote(),
         }
 
 

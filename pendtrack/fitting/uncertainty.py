@@ -14,12 +14,13 @@ Three numbers per parameter:
     the optimum: what the paper's procedure tends to when the sampler explores the whole valley.
     It equals ``sqrt(N)/2`` times the naive standard error, i.e. it is very conservative.
 ``stderr``
-    Heteroscedasticity- and autocorrelation-consistent (Newey-West) sandwich covariance
-    ``B^-1 S B^-1`` at the best fit, ``B = J^T J`` and ``S`` the long-run covariance of the
-    per-sample scores ``g_i = sum_channel J_ci r_ci`` with a Bartlett kernel. The residuals of
-    a pendulum fit are strongly autocorrelated (the Savitzky-Golay filter alone correlates
-    ~25 samples; a slightly wrong model leaves residuals at the pendulum's period), so the
-    textbook ``s^2 (J^T J)^-1`` would be too small by a large factor.
+    Autocorrelation-consistent sandwich covariance ``B^-1 S B^-1`` at the best fit,
+    ``B = J^T J`` and ``S = J^T Sigma J`` with ``Sigma`` the residuals' covariance, Toeplitz from
+    their sample auto- and cross-covariances up to a data-chosen lag with a flat-top kernel
+    (:func:`hac_meat`; the Newey-West estimate from the scores is biased low, see there). The
+    residuals of a pendulum fit are strongly autocorrelated (the Savitzky-Golay filter alone
+    correlates ~25 samples; a slightly wrong model leaves residuals at the pendulum's period),
+    so the textbook ``s^2 (J^T J)^-1`` would be too small by a large factor.
 
 Optionally the profile-likelihood sigmas on each side (:func:`pendtrack.fitting.leastsq.profile.profile_sigmas`)
 and a moving-block bootstrap (:func:`bootstrap_problems`: refits of data rebuilt as best-fit
@@ -48,6 +49,7 @@ from pendtrack.fitting.leastsq.problem import FD_REL, STATE_NAMES, FitProblem
 if TYPE_CHECKING:
     from pendtrack.fitting.search import Search
 
+HAC_KERNELS = ("toeplitz", "bartlett")
 SMOOTH_RATIO = 1.3  # the sandwich may change by this factor when the finite-difference steps grow 10x
 
 
@@ -149,7 +151,8 @@ def scale_shift(problem: FitProblem, x: np.ndarray, rel: float) -> np.ndarray:
     return np.abs(dx)
 
 
-def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None) -> tuple[np.ndarray, int]:
+def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None,
+                   kernel: str = "toeplitz", min_flat: int = 0) -> tuple[np.ndarray, int]:
     """Newey-West sandwich covariance of the least-squares estimate.
 
     Parameters
@@ -161,7 +164,14 @@ def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = 
     n : int
         Number of samples (channels are stacked sample blocks of length n).
     lag : int, optional
-        Bartlett truncation lag [samples]; default :func:`andrews_lag`.
+        Truncation lag [samples]; default :func:`flat_top_lag` of the residuals (``"toeplitz"``)
+        or :func:`andrews_lag` of the scores (``"bartlett"``).
+    kernel : {"toeplitz", "bartlett"}
+        How the long-run covariance is estimated (:func:`hac_meat`).
+    min_flat : int
+        ``"toeplitz"`` without ``lag``: the kernel stays flat up to at least this lag [samples]
+        (:func:`flat_top_lag`), e.g. ``savgol_window - 1``: a Savitzky-Golay filter correlates
+        its output over that many samples even for white noise.
 
     Returns
     -------
@@ -170,8 +180,13 @@ def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = 
     lag : int
         The lag used.
     """
-    meat, lag = hac_meat(jac, r, n, lag=lag)
+    meat, lag = hac_meat(jac, r, n, lag=lag, kernel=kernel, min_flat=min_flat)
     return sandwich(jac.T @ jac, meat), lag
+
+
+def filter_support(problem: FitProblem) -> int:
+    """Lags over which the data's Savitzky-Golay filter correlates its output (window - 1; 0: no filter) [samples]."""
+    return max(int(problem.observation.savgol_window) - 1, 0)
 
 
 def sandwich(bread: np.ndarray, meat: np.ndarray) -> np.ndarray:
@@ -184,8 +199,23 @@ def sandwich(bread: np.ndarray, meat: np.ndarray) -> np.ndarray:
     return 0.5 * (cov + cov.T)
 
 
-def hac_meat(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None) -> tuple[np.ndarray, int]:
-    """The long-run covariance ``S`` of the per-sample scores (the sandwich's meat, Bartlett kernel).
+def hac_meat(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None,
+             kernel: str = "toeplitz", min_flat: int = 0) -> tuple[np.ndarray, int]:
+    """The long-run covariance ``S`` of the scores ``J^T r`` (the sandwich's meat).
+
+    ``"toeplitz"`` (default): ``S = sum_k w_k sum_ab gamma_ab(k) sum_i J_a(i)^T J_b(i+k)`` (+ the
+    mirrored lags), the residual channels' sample auto- and cross-covariances ``gamma_ab(k)``
+    weighted by the flat-top kernel (:func:`kernel_weight`) up to :func:`flat_top_lag` of the
+    residuals. ``"bartlett"``: Newey-West, the Bartlett-weighted autocovariances of the
+    per-sample scores ``g_i = sum_a J_a(i) r_a(i)`` up to :func:`andrews_lag` of the scores.
+
+    Why Toeplitz: at the optimum the scores sum to zero (``J^T r = 0``), so a kernel estimate
+    from the scores misses about ``lag p / n`` of their long-run variance, and nothing can be
+    added back from the scores alone: on 20-s OPA records (n = 2400, lags ~80, p = 6) the
+    Newey-West standard errors of C4 and t0 were 12-16 % below the exact ones. The residuals'
+    autocovariances lose a like share at the pendulum's frequency, but that loss is known given
+    ``Sigma`` (:func:`projection_bias`) and is added back. The Toeplitz form assumes a noise
+    correlation that does not change along the record (stationary noise).
 
     Arguments as :func:`hac_covariance`. Independent records add their meats (a joint fit's
     sandwich is ``B^-1 (S_1 + S_2 + ...) B^-1``).
@@ -194,19 +224,170 @@ def hac_meat(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None) 
     -------
     meat : ndarray, shape (p, p)
     lag : int
-        The lag used [samples].
+        The truncation lag used [samples].
     """
+    if kernel not in HAC_KERNELS:
+        raise ValueError(f"unknown HAC kernel {kernel!r} (use {' or '.join(HAC_KERNELS)})")
     jc = channels(jac, n)  # (c, n, p)
     rc = channels(r, n)  # (c, n)
-    scores = np.einsum("cnp,cn->np", jc, rc)
+    if kernel == "bartlett":
+        scores = np.einsum("cnp,cn->np", jc, rc)
+        if lag is None:
+            lag = andrews_lag(scores)
+        meat = scores.T @ scores
+        for ell in range(1, lag + 1):
+            gamma = scores[ell:].T @ scores[:-ell]
+            meat += kernel_weight(ell, lag, kernel) * (gamma + gamma.T)
+        return meat, lag
     if lag is None:
-        lag = andrews_lag(scores)
-    meat = scores.T @ scores
-    for ell in range(1, lag + 1):
-        w = 1.0 - ell / (lag + 1.0)
-        gamma = scores[ell:].T @ scores[:-ell]
-        meat += w * (gamma + gamma.T)
-    return meat, lag
+        lag = flat_top_lag(rc.T, min_flat=min_flat)
+    lags = range(0, min(lag, n - 1) + 1)
+    weights = [kernel_weight(ell, lag, kernel) if ell else 1.0 for ell in lags]
+    c = rc.shape[0]
+    cross = {}  # (ell, a, b) -> sum_i J_a(i)^T J_b(i + ell), p x p
+    gamma = np.zeros((len(lags), c, c))  # mean r_a(i) r_b(i + ell)
+    for ell in lags:
+        if weights[ell] == 0.0:
+            continue
+        for a in range(c):
+            for b in range(c):
+                gamma[ell, a, b] = float(rc[a, : n - ell] @ rc[b, ell:]) / (n - ell)
+                cross[ell, a, b] = jc[a, : n - ell].T @ jc[b, ell:]
+    gamma = gamma + projection_bias(jc, gamma, weights, cross)
+    meat = np.zeros((jac.shape[1], jac.shape[1]))
+    for (ell, a, b), term in cross.items():
+        term = gamma[ell, a, b] * term
+        meat += weights[ell] * (term if ell == 0 else term + term.T)
+    return nearest_psd(meat), lag
+
+
+PROJECTION_ITERATIONS = 3  # fixed-point steps of the bias correction (each changes the meat by ~(p lag / n)^k)
+
+
+def projection_bias(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
+                    cross: dict[tuple[int, int, int], np.ndarray]) -> np.ndarray:
+    """How much the residuals' autocovariances fall short of the noise's, because the fit absorbed part of it.
+
+    The residuals are ``r = (I - P) e``, ``P = J B^-1 J^T`` the projection on the Jacobian's
+    columns, so ``E[r r^T] = Sigma - P Sigma - Sigma P + P Sigma P``: the lag-``ell`` autocovariance
+    of the residuals is low by the mean of the ``ell``-th diagonal of the last three terms. The
+    Jacobian's columns vary at the pendulum's frequency, where the sandwich needs the noise, so
+    the loss there is about ``p lag / n`` of it (15-25 % on 10-s records with the 25-point filter),
+    much more than the ``p / n`` of the whole variance. ``Sigma`` is the Toeplitz matrix of the
+    corrected, kernel-weighted autocovariances (a fixed point, :data:`PROJECTION_ITERATIONS` steps
+    from the residuals' own).
+
+    Parameters
+    ----------
+    jc : ndarray, shape (c, n, p)
+        The Jacobian's channels.
+    gamma : ndarray, shape (L + 1, c, c)
+        Mean ``r_a(i) r_b(i + ell)`` of the residual channels.
+    weights : list of float
+        The kernel's weight of each lag.
+    cross : dict
+        ``(ell, a, b) -> sum_i J_a(i)^T J_b(i + ell)``.
+
+    Returns
+    -------
+    ndarray, shape (L + 1, c, c)
+        What to add to ``gamma``.
+    """
+    c, n, _ = jc.shape
+    try:
+        binv = np.linalg.inv(np.einsum("cnp,cnq->pq", jc, jc))
+    except np.linalg.LinAlgError:
+        return np.zeros_like(gamma)
+    bias = np.zeros_like(gamma)
+    for _ in range(PROJECTION_ITERATIONS):
+        g = (gamma + bias) * np.asarray(weights)[:, None, None]
+        q = np.zeros_like(jc)  # Sigma J, channel by channel
+        for ell in range(g.shape[0]):
+            for a in range(c):
+                for b in range(c):
+                    if g[ell, a, b] == 0.0:
+                        continue
+                    q[a, : n - ell] += g[ell, a, b] * jc[b, ell:]  # E e_a(i) e_b(i + ell) J_b(i + ell)
+                    if ell:
+                        q[b, ell:] += g[ell, a, b] * jc[a, : n - ell]  # the mirrored lag
+        mid = binv @ np.einsum("cnp,cnq->pq", jc, q) @ binv  # B^-1 J^T Sigma J B^-1
+        new = np.zeros_like(gamma)
+        for (ell, a, b), jj in cross.items():
+            ps = float(np.sum(binv * (q[b, ell:].T @ jc[a, : n - ell])))  # P Sigma
+            sp = float(np.sum(binv * (jc[b, ell:].T @ q[a, : n - ell])))  # Sigma P
+            psp = float(np.sum(mid * jj.T))  # P Sigma P
+            new[ell, a, b] = (ps + sp - psp) / (n - ell)
+        bias = new
+    return bias
+
+
+def kernel_weight(ell: int, lag: int, kernel: str) -> float:
+    """Weight of the lag-``ell`` autocovariance in the meat truncated at ``lag`` [1].
+
+    ``"bartlett"``: ``1 - ell/(lag + 1)``; ``"toeplitz"``: Politis-Romano's flat-top trapezoid, 1 up
+    to ``lag/2``, then falling linearly to 0 at ``lag`` (no downweighting of the lags where the
+    residuals are correlated, hence no bias there).
+    """
+    if kernel == "bartlett":
+        return 1.0 - ell / (lag + 1.0)
+    return min(1.0, max(0.0, 2.0 * (1.0 - ell / lag)))
+
+
+def flat_top_lag(scores: np.ndarray, *, c: float = 2.0, min_flat: int = 0) -> int:
+    """Truncation lag of the flat-top kernel by Politis' (2003) empirical rule.
+
+    Per column of ``scores`` (a series each, e.g. the residual channels): ``m`` is the smallest lag after which the sample autocorrelation stays
+    within ``c sqrt(log10(n)/n)`` (an approximate 95 % band of a zero autocorrelation) for
+    ``K = max(5, sqrt(log10 n))`` consecutive lags; the lag is ``2 max(m, min_flat)``, at most n/4.
+    The rule alone stops too early after a Savitzky-Golay filter: the tail of the filter's
+    autocorrelation (lags 15-24 of a 25-point window) lies inside the band yet adds ~20 % to the
+    long-run variance, hence ``min_flat``: the filter's known support.
+
+    Parameters
+    ----------
+    scores : ndarray, shape (n, p)
+    c : float
+        Width of the band in units of ``sqrt(log10(n)/n)``.
+    min_flat : int
+        The flat part's least length [samples].
+
+    Returns
+    -------
+    int
+        Lag ``M`` >= 2 [samples]: the kernel is flat up to ``M/2``.
+    """
+    n = scores.shape[0]
+    max_lag = max(n // 4, 2)
+    band = c * math.sqrt(math.log10(max(n, 10)) / n)
+    k_run = max(5, int(math.ceil(math.sqrt(math.log10(max(n, 10))))))
+    m_all = max(1, int(min_flat))
+    for a in range(scores.shape[1]):
+        g = scores[:, a] - scores[:, a].mean()
+        var = float(g @ g)
+        if var <= 0:
+            continue
+        nl = min(max_lag // 2 + k_run, n - 1)
+        spec = np.fft.rfft(g, 2 * n)
+        acf = np.fft.irfft(spec * np.conj(spec))[: nl + 1] / var  # sample autocorrelation, lags 0..nl
+        small = np.abs(acf[1:]) < band  # lag 1.. nl
+        m = nl
+        run = 0
+        for ell in range(1, nl + 1):
+            run = run + 1 if small[ell - 1] else 0
+            if run >= k_run:
+                m = ell - k_run  # the last lag before the run of small autocorrelations
+                break
+        m_all = max(m_all, m)
+    return int(min(max(2 * m_all, 2), max_lag))
+
+
+def nearest_psd(a: np.ndarray) -> np.ndarray:
+    """``a`` (symmetric) with its negative eigenvalues set to 0: a flat-top kernel's meat made a covariance."""
+    a = 0.5 * (a + a.T)
+    vals, vecs = np.linalg.eigh(a)
+    if vals.min() >= 0:
+        return a
+    return (vecs * np.maximum(vals, 0.0)) @ vecs.T
 
 
 def naive_covariance(jac: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -289,7 +470,7 @@ class Uncertainty:
     covariance : ndarray
         Sandwich covariance of the fitted vector.
     hac_lag : int
-        Its Bartlett lag [samples].
+        Its truncation lag [samples].
     stderr, stderr_naive, u_paper, u_region : ndarray
         Sandwich, textbook, paper's 5/4 spread, 5/4-region half-width.
     n_accepted : int
@@ -347,7 +528,7 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     u_paper, accepted = paper_uncertainty(found.xs, found.costs, options.accept_ratio)
     r = problem.residuals(x)
     jac = problem.jacobian(x, central=True, method="fd")  # the sandwich and its 10x-step check: finite differences
-    cov, lag = hac_covariance(jac, r, problem.n)
+    cov, lag = hac_covariance(jac, r, problem.n, min_flat=filter_support(problem))
     # smoothness check: the sandwich of the parameters inside their bounds, with 10x larger steps,
     # must agree (it does for smooth solvers; a solver that is rough in the parameters makes
     # local standard errors mean little)

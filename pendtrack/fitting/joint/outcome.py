@@ -136,7 +136,7 @@ class JointFit:
     covariance : ndarray
         Sandwich covariance of the joint vector (order of ``estimates``).
     hac_lags : tuple of int
-        Each run's Bartlett lag [samples].
+        Each run's truncation lag of the sandwich's meat [samples].
     message : str
         The optimiser's last message, or why the fit did not converge.
     flags : mapping

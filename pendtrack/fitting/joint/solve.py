@@ -38,7 +38,8 @@ from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.refine import POLISH_ITERATIONS
 from pendtrack.fitting.result import FitResult
 from pendtrack.fitting.search import ladder_growth
-from pendtrack.fitting.uncertainty import hac_meat, naive_covariance, paper_uncertainty, region_halfwidth, sandwich
+from pendtrack.fitting.uncertainty import (filter_support, hac_meat, naive_covariance, paper_uncertainty,
+                                           region_halfwidth, sandwich)
 from pendtrack.fitting.uncertainty import stderr_from_cov
 from pendtrack.parallel import ProcessPool
 
@@ -186,7 +187,7 @@ def joint_covariance(stacked: StackedProblem, best: StartOutcome, *,
     -------
     covariance : ndarray, shape (p, p)
     lags : list of int
-        Each run's Bartlett lag [samples].
+        Each run's truncation lag of the sandwich's meat [samples].
     stderr_naive, u_region : ndarray
         The textbook standard errors and the 5/4 region's half-widths (comparison only).
     """
@@ -197,7 +198,7 @@ def joint_covariance(stacked: StackedProblem, best: StartOutcome, *,
     lags = []
     for i, p in enumerate(stacked.problems):
         rows = stacked.rows[i]
-        m, lag = hac_meat(jac[rows], r[rows], p.n)
+        m, lag = hac_meat(jac[rows], r[rows], p.n, min_flat=filter_support(p))
         meat += m
         lags.append(int(lag))
     cov = sandwich(jac.T @ jac, meat)
