@@ -16,6 +16,11 @@ then post-processed in BGR before it is encoded with :class:`pendtrack.video.wri
 * ``cap``: the ball's half towards the axle is clear (pale), turning with the pendulum: only
   the lower half has the marker's colour (issue 27's bauble: a fixed template of it scores
   0.53-0.7 where the swing turns it most).
+* ``clutter``: static grey boxes and bars on the floor, below the swing (corners a camera's
+  motion can be measured on; the render's plain wall has too few).
+* ``shake_px``: a hand-held camera: the whole frame (after every condition above) shifted by a
+  drift of up to ``shake_px`` down and ``0.4 shake_px`` across plus a small tremor, 0 in the
+  first frame (issue 27's field trial: KatieButler/Non-Linear pendulum.MOV, 8 px in 7 s).
 
 ``render`` overrides any ``[render]`` key (the marker's colour and shape, the rig, the lens,
 the renderer's own hand): the painted conditions then take the marker's colour.
@@ -57,6 +62,9 @@ class FieldVideo:
         The spot is not hidden (by the hand).
     radius_px : float
         The spot's radius in the image near the axle's vertical [px].
+    shift : ndarray, shape (n, 2)
+        The camera's shift of each frame [px] (``shake_px``; zeros without): ``spot`` includes it,
+        ``spot - shift`` is the spot in the first frame's view.
     """
 
     path: Path
@@ -65,12 +73,13 @@ class FieldVideo:
     spot: np.ndarray
     visible: np.ndarray
     radius_px: float
+    shift: np.ndarray | None = None
 
 
 def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, width: int = 640, height: int = 360,
                 theta0: float = 1.2, hand_s: float = 0.0, poster: bool = False, sticker: bool = False,
                 bead: bool = False, wanderer: bool = False, corner: bool = False, twin: bool = False, cap: bool = False,
-                seed: int = 0,
+                clutter: bool = False, shake_px: float = 0.0, seed: int = 0,
                 **render: object) -> FieldVideo:
     """Render, post-process and encode; see the module docstring for the conditions."""
     cfg = Config().replace("render", width=width, height=height, fps=fps, seconds=seconds, theta0=theta0,
@@ -89,6 +98,13 @@ def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, wi
     if cfg.marker_color != "pink":
         light = np.array(MARKER_BGR[cfg.marker_color], float)
     ax, ay = scene.spot_centre_px(0.0)
+    tt = motion.t - motion.t[0]
+    shift = shake_px * np.column_stack([0.4 * tt / seconds + 0.1 * np.sin(2 * np.pi * 0.9 * tt),
+                                        tt / seconds + 0.1 * np.sin(2 * np.pi * 1.3 * tt)])
+    rng = np.random.default_rng(seed + 7)
+    floor = float(np.max(sy)) + 3 * radius
+    boxes = [(rng.uniform(0, width - 12), rng.uniform(floor, height - 8), rng.uniform(6, 20), rng.uniform(4, 10),
+              float(rng.uniform(20, 230))) for _ in range(40)] if clutter else []
     with VideoWriter(path, width=width, height=height, fps=fps, crf=20) as writer:
         for k in range(motion.n_frames):
             img = renderer.render(motion.frame_thetas(k))
@@ -127,5 +143,11 @@ def field_video(path: str | Path, *, seconds: float = 3.0, fps: float = 60.0, wi
                 centre = (int(round(sx[k])), int(round(sy[k] + 0.8 * radius)))
                 cv2.ellipse(img, centre, (int(2.6 * radius), int(3.4 * radius)), np.degrees(-th), 0, 360,
                             SKIN_BGR, -1, lineType=cv2.LINE_AA)
+            for bx, by, bw, bh, grey in boxes:
+                cv2.rectangle(img, (int(bx), int(by)), (int(bx + bw), int(min(by + bh, height - 1))), (grey,) * 3, -1)
+            if shake_px:
+                m = np.array([[1.0, 0.0, shift[k, 0]], [0.0, 1.0, shift[k, 1]]])
+                img = cv2.warpAffine(img, m, (width, height), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
             writer.write(img)
-    return FieldVideo(Path(path), motion.t.copy(), motion.theta.copy(), np.column_stack([sx, sy]), visible, radius)
+    spot = np.column_stack([sx, sy]) + shift
+    return FieldVideo(Path(path), motion.t.copy(), motion.theta.copy(), spot, visible, radius, shift)

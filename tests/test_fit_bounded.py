@@ -267,3 +267,42 @@ def test_run_exit_code_follows_the_fit(monkeypatch, tmp_path):
     monkeypatch.setattr(run_mod, "run_pipeline", fake({"models": {"classic": {"message": "stopped"}},
                                                        "not_converged": ["classic"]}))
     assert _invoke("run", video, "--out", tmp_path, "-q").exit_code == 1
+
+
+def test_omega0_stays_below_the_records_nyquist_frequency(monkeypatch):
+    # issue 27's field trial: sborquez/Pendulum-Tracking video2 (20 s at 29.97 fps, a 0.21 rad swing that barely
+    # decays): a start of the classic+offset fit ran off to Omega0 = 2.3e4 rad/s, where the RK4 sub-steps
+    # (Omega h_sub <= substep_phase) grew to 15172 a sample, and the fit ran for half an hour. A record sampled every
+    # h shows no oscillation faster than pi/h, so Omega0 is bounded there: at most ceil(pi / substep_phase) sub-steps
+    import sys
+
+    from scipy.signal import savgol_filter
+
+    from pendtrack.fitting.leastsq.cost import Observation
+    from pendtrack.models import compose
+
+    sim = sys.modules["pendtrack.models.simulate"]
+    most = [0]
+    real = sim.default_substeps
+
+    def counted(coeffs, h, phase=sim.SUBSTEP_PHASE):
+        k = real(coeffs, h, phase)
+        most[0] = max(most[0], k)
+        return k
+
+    monkeypatch.setattr(sim, "default_substeps", counted)
+    h = 1 / 29.97
+    t = np.arange(581) * h
+    theta = (0.21 * np.exp(-t / 400) * np.cos(3.944 * t + 0.3) - 0.03
+             + np.random.default_rng(0).normal(0, 2e-3, t.size))
+    omega = savgol_filter(theta, 7, 3, deriv=1, delta=h)
+    alpha = savgol_filter(theta, 7, 3, deriv=2, delta=h)
+    res = fit_model(compose(get_model("classic"), ["offset"]), t, theta, omega, alpha=alpha,
+                    observation=Observation(savgol_window=7, savgol_order=3, smooth_theta=True),
+                    options=replace(FAST, n_starts=5), seed=0)
+    # without the bound a start of this fit reached 252 sub-steps (Omega0 = 189 rad/s, twice the Nyquist 94 rad/s)
+    limit = int(np.ceil(np.pi / FitConfig().substep_phase))
+    assert 0 < most[0] <= limit
+    # the record is a linear swing at 3.944 rad/s; the pendulum's sin(theta) lengthens the period of a 0.21 rad
+    # swing by theta0^2/16, so the fitted small-angle Omega0 is higher by that (0.28 %), to within the noise
+    assert res.values["Omega0"] == pytest.approx(3.944 * (1 + 0.21 ** 2 / 16), rel=1e-3)

@@ -45,6 +45,28 @@ def test_a_swing_its_period_and_what_is_no_swing():
     assert not carried.swings and carried.crossings < 2
 
 
+def test_a_point_that_swung_only_until_the_tracker_lost_it_does_not_swing():
+    # SonyNeto/analise_dados_pendulo_simples@d61bcbb pendulo.avi: the tracker followed the bob for its first swing,
+    # then held a static green patch for 21 s (jitter 0.3-1 px, a few jumps of 20-30 px): 4 crossings and a 28.8 px
+    # amplitude, so crossings and amplitude alone called it a swing
+    rng = np.random.default_rng(1)
+    t = np.arange(446) / 20.0
+    x = 105 + rng.normal(0, 0.8, t.size)
+    y = 293 + rng.normal(0, 0.3, t.size)
+    first = t < 0.8
+    x[first] = 105 + 95 * np.cos(2 * np.pi * t[first] / 0.77)
+    y[first] = 293 + 10 * np.cos(4 * np.pi * t[first] / 0.77)
+    jumps = rng.choice(np.flatnonzero(~first), 6, replace=False)
+    x[jumps] -= rng.uniform(20, 30, jumps.size)
+    s = swing_of_track(t, x, y, np.ones(t.size, bool))
+    assert s.crossings >= 2 and s.amplitude_px > 20  # what alone would pass
+    assert not s.swings and "does not swing" in s.reason and "(105, 293)" in s.reason
+    # a swing that decays and rests still for its last fifth is a swing (its rest is the middle of its path)
+    x = 300 + 60 * np.exp(-t / 4) * np.cos(2 * np.pi * t / 1.5) + rng.normal(0, 0.3, t.size)
+    x[t > 0.8 * t[-1]] = 300 + rng.normal(0, 0.3, int((t > 0.8 * t[-1]).sum()))
+    assert swing_of_track(t, x, 100 + rng.normal(0, 0.3, t.size), np.ones(t.size, bool)).swings
+
+
 def test_crossings_skip_noise_and_gaps_keep_the_period():
     t = np.arange(0, 10, 0.01)
     d = np.sin(2 * np.pi * t / 2.0)

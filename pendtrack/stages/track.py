@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from pendtrack.lens.fisheye import (Fisheye, fisheye_from_config, local_scale, r
                                     undistort_blob_centres)
 from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.track.camera import MOVE_PX, CameraMotion, CameraMotionMeter
 from pendtrack.track.colour import MarkerColour, parse_marker_colour
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
 from pendtrack.track.swing import swing_of_track
@@ -97,6 +99,32 @@ def track_dataframe(result: TrackResult, fisheye: Fisheye, *, corrected: bool) -
     })
 
 
+def steady_track(result: TrackResult, camera: CameraMotion, *, corrected: bool,
+                 video: Path) -> tuple[TrackResult, dict[str, object]]:
+    """The track mapped into the first frame's view when the camera moved (:mod:`pendtrack.track.camera`).
+
+    Only a measured motion of at least :data:`~pendtrack.track.camera.MOVE_PX` at the marker
+    (95th percentile over the ok frames) changes the track; the report (the provenance's
+    ``camera``) says what was measured and whether it was applied.
+    """
+    report = camera.to_dict()
+    ok = result.ok & np.isfinite(result.x) & np.isfinite(result.y)
+    moved = camera.displacement(result.frame[ok], result.x[ok], result.y[ok])
+    report["marker_shift_p95_px"] = float(np.percentile(moved, 95)) if moved.size else 0.0
+    report["applied"] = False
+    if not camera.measured or report["marker_shift_p95_px"] < MOVE_PX:
+        return result, report
+    if corrected:  # the transforms are the raw frame's; a track in corrected frames is left as it is
+        log.warning("%s: the camera moved by up to %.1f px at the marker; tracking in corrected frames does not "
+                    "compensate it (track raw frames: --raw)", video, report["marker_shift_p95_px"])
+        return result, report
+    x, y = camera.to_reference(result.frame, result.x, result.y)
+    report["applied"] = True
+    log.warning("%s: the camera moved: the scene shifted by up to %.1f px at the marker (%s); the track is mapped "
+                "into the first frame's view", video, report["marker_shift_p95_px"], camera.reason)
+    return replace(result, x=x, y=y), report
+
+
 def make_sampler(colour: MarkerColour, fisheye: Fisheye, *, corrected: bool) -> RawSampler:
     """Corrected-frame sampler, or raw-frame sampler with a lens-warped template (plain if no lens)."""
     if corrected:
@@ -170,14 +198,23 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         info, prefetch = reader.info, reader.prefetch
         fisheye = _fisheye(config, info.width, info.height)
         sampler = make_sampler(colour, fisheye, corrected=corrected)
+        meter = CameraMotionMeter(fps=info.fps)
+
+        def metered():  # the camera's motion measured on the frames as they pass to the tracker
+            for fr in reader:
+                meter.add(fr.index, fr.y)
+                yield fr
+
         with progress_bar(info.n_frames or None, "track", enabled=progress) as advance:
             try:
-                result = track_frames(reader, sampler=sampler, params=params, roi=config.track.roi,
+                result = track_frames(metered(), sampler=sampler, params=params, roi=config.track.roi,
                                       on_progress=advance)
             except TrackingError as exc:
                 raise TrackingError(str(exc), path=video) from None
         decode = dict(reader.decode_report)
     elapsed = time.perf_counter() - t0
+    camera = meter.result()
+    result, camera_report = steady_track(result, camera, corrected=corrected, video=video)
     n = int(result.frame.size)
     n_after = result.n_after_acquisition
     if result.ok.sum() < MIN_OK_FRACTION * n_after:
@@ -208,6 +245,7 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
         "time_range_s": {"start": vc.start, "end": vc.end if vc.end > 0 else None},
         **result.to_dict(),
         "swing": swing.to_dict(),
+        "camera": camera_report,
     }
     write_artifact(df, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
                                                              extra=extra))

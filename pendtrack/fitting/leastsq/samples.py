@@ -173,6 +173,13 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
     n_grid = int(index[-1]) + 1
     keep = interior(index, n_grid, obs.trim)
     lower, upper = parameter_bounds(model, float(tu[0]))
+    # samples every h cannot show an oscillation faster than their Nyquist frequency pi/h (it aliases to a slower
+    # one); above it the RK4 sub-steps (Omega h_sub <= substep_phase) grow without bound: a start that ran off to
+    # Omega0 = 2e4 rad/s on a 30 fps record took 15172 sub-steps a sample, and its fit half an hour
+    names = list(model.param_names)
+    if "Omega0" in names:
+        j = names.index("Omega0")
+        upper[j] = min(upper[j], np.pi / h)
     th_init = float(theta[mask][0])
     om_init = float(omega[mask][0])
     lower = np.concatenate((lower, [th_init - 1.0, om_init - 2.0 * omega0_hat]))
