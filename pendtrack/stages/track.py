@@ -1,33 +1,22 @@
-"""`track` stage: video -> track.parquet (marker centre per frame, raw and lens-corrected)."""
+"""`track` stage: video -> track.parquet (marker centre per frame, raw and lens-corrected).
+
+The stage decodes the video (its reader and decoding settings), calls
+:func:`pendtrack.track.video_track.track_video` (every decision is made there) and writes what it returns.
+"""
 
 from __future__ import annotations
 
-import logging
-import time
-from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
-import pandas as pd
 
 from pendtrack.artifacts import Provenance, inputs_for, write_artifact
 from pendtrack.config import Config
-from pendtrack.errors import ConfigError, TrackingError, VideoError
-from pendtrack.lens.fisheye import (Fisheye, fisheye_from_config, local_scale, raw_centroid_offset,
-                                    undistort_blob_centres)
+from pendtrack.errors import VideoError
 from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
-from pendtrack.track.camera import MOVE_PX, CameraMotion, CameraMotionMeter
-from pendtrack.track.colour import MarkerColour, parse_marker_colour
-from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
-from pendtrack.track.swing import swing_of_track
-from pendtrack.track.tracker import TrackParams, TrackResult, track_frames
-from pendtrack.video.reader import VideoReader, check_time_range
-
-log = logging.getLogger(__name__)
+from pendtrack.track.video_track import check_video_options, track_video
+from pendtrack.video.reader import VideoReader
 
 CONFIG_SECTIONS = ("lens", "video", "track")
-MIN_OK_FRACTION = 0.5  # below this the marker was mostly lost: an error, not a track
 DECODE_THREADS = False  # FFmpeg's own decoder threads (benchmarks/bench_track.py measures both)
 DECODE_PREFETCH = 8  # decode at least this many frames ahead in a background thread (0: same thread)
 # ... or as many as fit this many MiB (86 frames at 1080p, 194 at 720p, 21 at 4K), held only while the consumer
@@ -38,100 +27,6 @@ DECODE_PREFETCH = 8  # decode at least this many frames ahead in a background th
 # the searches overlapped the window: 0.89 with 8, 0.96 with 86). Frames queued beyond the lag cost nothing; the
 # lag's frames do (fresh FFmpeg frame buffers: ~20k page faults at 1080p, mostly the motion window's 31 frames).
 DECODE_PREFETCH_MB = 256.0
-
-
-# flags of `track` and `run` named in the errors about the config keys they set (phrase in message -> flag)
-FLAGS = {"min_score": "--min-score", "marker colour": "--marker-color", "roi": "--roi", "field of view": "--fov",
-         "fixed_pixels": "--fixed-pixels", "projection": "--projection", "fps": "--fps"}
-
-
-def config_error(section: str, exc: Exception) -> ConfigError:
-    """``[section] <problem>`` naming the command-line flags of the keys the problem mentions."""
-    text = str(exc)
-    flags = [flag for phrase, flag in FLAGS.items() if phrase in text]
-    return ConfigError(f"[{section}] {text}" + (f" ({', '.join(flags)})" if flags else ""))
-
-
-def track_params(config: Config) -> TrackParams:
-    """Core tracking parameters from the ``[track]`` section."""
-    tc = config.track
-    try:
-        return TrackParams(min_score=tc.min_score, search_margin_px=tc.search_margin_px,
-                           quick_margin_px=tc.quick_margin_px, evolution_rate=tc.evolution_rate,
-                           refine=tc.refine, max_coast_frames=tc.max_coast_frames,
-                           min_contrast_ratio=tc.min_contrast_ratio, acquire_step_s=tc.acquire_step_s,
-                           acquire_window_s=tc.acquire_window_s, max_drift_px=tc.max_drift_px,
-                           hole_share=tc.hole_share)
-    except ValueError as exc:
-        raise config_error("track", exc) from None
-
-
-def _fisheye(config: Config, width: int, height: int) -> Fisheye:
-    try:
-        return fisheye_from_config(config.lens, width=width, height=height)
-    except ValueError as exc:
-        raise config_error("lens", exc) from None
-
-
-def track_dataframe(result: TrackResult, fisheye: Fisheye, *, corrected: bool) -> pd.DataFrame:
-    """The track artifact's columns from a core result in raw or corrected coordinates.
-
-    Raw coordinates (``x_px``, ``y_px``) are the marker blob's centroid in the raw frame;
-    corrected ones (``x``, ``y``) the image of the marker's centre after lens correction.
-    The two differ by more than :meth:`Fisheye.undistort_points`: the lens shifts a round
-    marker's raw blob off the image of its centre by a second-order amount (~0.1 px for
-    the paper's spot), accounted for here (:func:`pendtrack.lens.fisheye.undistort_blob_centres`).
-    """
-    if corrected:
-        x, y = result.x, result.y
-        ox, oy = raw_centroid_offset(fisheye, x, y, result.radius)
-        x_px, y_px = fisheye.distort_points(x, y)
-        x_px, y_px = x_px + ox, y_px + oy
-    else:
-        x_px, y_px = result.x, result.y
-        radius_c = result.radius * local_scale(fisheye, result.detection.x, result.detection.y)
-        x, y = undistort_blob_centres(fisheye, x_px, y_px, radius_c)
-    return pd.DataFrame({
-        "frame": result.frame.astype(np.int64), "t": result.t.astype(float),
-        "x_px": np.asarray(x_px, float), "y_px": np.asarray(y_px, float),
-        "x": np.asarray(x, float), "y": np.asarray(y, float),
-        "score": result.score.astype(float), "ok": result.ok.astype(bool),
-    })
-
-
-def steady_track(result: TrackResult, camera: CameraMotion, *, corrected: bool,
-                 video: Path) -> tuple[TrackResult, dict[str, object]]:
-    """The track mapped into the first frame's view when the camera moved (:mod:`pendtrack.track.camera`).
-
-    Only a measured motion of at least :data:`~pendtrack.track.camera.MOVE_PX` at the marker
-    (95th percentile over the ok frames) changes the track; the report (the provenance's
-    ``camera``) says what was measured and whether it was applied.
-    """
-    report = camera.to_dict()
-    ok = result.ok & np.isfinite(result.x) & np.isfinite(result.y)
-    moved = camera.displacement(result.frame[ok], result.x[ok], result.y[ok])
-    report["marker_shift_p95_px"] = float(np.percentile(moved, 95)) if moved.size else 0.0
-    report["applied"] = False
-    if not camera.measured or report["marker_shift_p95_px"] < MOVE_PX:
-        return result, report
-    if corrected:  # the transforms are the raw frame's; a track in corrected frames is left as it is
-        log.warning("%s: the camera moved by up to %.1f px at the marker; tracking in corrected frames does not "
-                    "compensate it (track raw frames: --raw)", video, report["marker_shift_p95_px"])
-        return result, report
-    x, y = camera.to_reference(result.frame, result.x, result.y)
-    report["applied"] = True
-    log.warning("%s: the camera moved: the scene shifted by up to %.1f px at the marker (%s); the track is mapped "
-                "into the first frame's view", video, report["marker_shift_p95_px"], camera.reason)
-    return replace(result, x=x, y=y), report
-
-
-def make_sampler(colour: MarkerColour, fisheye: Fisheye, *, corrected: bool) -> RawSampler:
-    """Corrected-frame sampler, or raw-frame sampler with a lens-warped template (plain if no lens)."""
-    if corrected:
-        return CorrectedSampler(colour, fisheye=fisheye)
-    if fisheye.projection == "none":
-        return RawSampler(colour, width=fisheye.width, height=fisheye.height)
-    return WarpedRawSampler(colour, fisheye=fisheye)
 
 
 def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force: bool = False,
@@ -179,76 +74,14 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
     inputs = inputs_for(video)
     if up_to_date((out,), "track", inputs=inputs, config=sections, force=force):
         return StageOutput((out,), skipped=True)
-    try:
-        colour = parse_marker_colour(config.track.marker_color)
-    except ValueError as exc:
-        raise config_error("track", exc) from None
-    params = track_params(config)
-    corrected = config.track.track_in_corrected
+    check_video_options(config)  # before any decoding
     vc = config.video
-    if not (np.isfinite(vc.fps) and vc.fps >= 0):
-        raise ConfigError(f"[video] fps must be 0 (the container's timestamps) or a rate > 0, got {vc.fps:g} (--fps)")
-    try:
-        check_time_range(vc.start, vc.end)
-    except ValueError as exc:
-        raise ConfigError(f"[video] {exc} (--start, --end)") from None
-    t0 = time.perf_counter()
     with VideoReader(video, fps=vc.fps, threads=DECODE_THREADS, prefetch=DECODE_PREFETCH,
                      prefetch_mb=DECODE_PREFETCH_MB, start=vc.start, end=vc.end) as reader:
-        info, prefetch = reader.info, reader.prefetch
-        fisheye = _fisheye(config, info.width, info.height)
-        sampler = make_sampler(colour, fisheye, corrected=corrected)
-        meter = CameraMotionMeter(fps=info.fps)
-
-        def metered():  # the camera's motion measured on the frames as they pass to the tracker
-            for fr in reader:
-                meter.add(fr.index, fr.y)
-                yield fr
-
-        with progress_bar(info.n_frames or None, "track", enabled=progress) as advance:
-            try:
-                result = track_frames(metered(), sampler=sampler, params=params, roi=config.track.roi,
-                                      on_progress=advance)
-            except TrackingError as exc:
-                raise TrackingError(str(exc), path=video) from None
-        decode = dict(reader.decode_report)
-    elapsed = time.perf_counter() - t0
-    camera = meter.result()
-    result, camera_report = steady_track(result, camera, corrected=corrected, video=video)
-    n = int(result.frame.size)
-    n_after = result.n_after_acquisition
-    if result.ok.sum() < MIN_OK_FRACTION * n_after:
-        acq = result.acquisition
-        found = f", found at {acq['t']:.3f} s" if acq["row"] else ""
-        raise TrackingError(f"marker lost in {n_after - int(result.ok.sum())} of {n_after} frames{found} "
-                            f"(best scores below min_score {params.min_score}); try --roi or --min-score",
-                            path=video)
-    swing = swing_of_track(result.t, result.x, result.y, result.ok)
-    if not swing.swings:
-        # a static look-alike (a dark corner, a shadow, a poster) tracked "ok" in every frame is no result
-        raise TrackingError(f"{swing.reason}, so it is no pendulum's marker; pass --roi X,Y,W,H around the bob in "
-                            f"a frame where it swings (or --marker-color, --start)", path=video)
-    if result.drift["alarm"]:
-        log.warning("%s: the evolving template drifted up to %.1f px from the first one (limit %.1f px, "
-                    "re-anchored %d times)", video, result.drift["max_px"], params.max_drift_px,
-                    result.drift["reanchors"])
-    df = track_dataframe(result, fisheye, corrected=corrected)
-    extra = {
-        "video": info.to_dict(),
-        "decode": decode,
-        "coordinates": "corrected" if corrected else "raw",
-        "sampler": type(sampler).__name__,
-        "lens_output_fov_deg": fisheye.output_fov_deg,
-        "decode_threads": DECODE_THREADS,
-        "decode_prefetch": prefetch,
-        "tracking_fps": n / elapsed if elapsed > 0 else None,
-        "time_range_s": {"start": vc.start, "end": vc.end if vc.end > 0 else None},
-        **result.to_dict(),
-        "swing": swing.to_dict(),
-        "camera": camera_report,
-    }
-    write_artifact(df, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
-                                                             extra=extra))
-    facts = {"frames": n, "ok_fraction": result.ok_fraction, "fps": extra["tracking_fps"],
-             "acquired_t": result.acquisition["t"], "drift_alarm": result.drift["alarm"]}
-    return StageOutput((out,), facts=facts)
+        with progress_bar(reader.info.n_frames or None, "track", enabled=progress) as advance:
+            table = track_video(reader, info=reader.info, config=config, source=video, on_progress=advance)
+        extra = {**table.extra, "decode": dict(reader.decode_report), "decode_threads": DECODE_THREADS,
+                 "decode_prefetch": reader.prefetch}
+    write_artifact(table.frame, out, "track", provenance=Provenance(stage="track", config=sections, inputs=inputs,
+                                                                    extra=extra))
+    return StageOutput((out,), facts=table.facts)
