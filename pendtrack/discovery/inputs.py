@@ -91,7 +91,7 @@ def read_angle_series(path: str | Path, *, table: TableSpec | None = None,
         ``--columns`` and ``--pivot`` of a table.
     pivot_fit : callable, optional
         Fits the pivot of x, y columns when ``table.pivot`` is not given (the discover stage
-        passes :func:`pendtrack.track.pivot.fitted_pivot`).
+        passes :func:`pendtrack.track.axle.fitted_pivot`).
 
     Returns
     -------

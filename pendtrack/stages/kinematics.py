@@ -3,7 +3,7 @@
 The input is anything :func:`pendtrack.tables.read_record` reads (angle.parquet, a Parquet file
 or a CSV/whitespace table of t, theta or t, x, y), read here by :func:`read_input`, the reader
 `fit` and `discover` share: x, y columns without ``--pivot`` get the pivot from a robust circle
-fit of their path (:func:`pendtrack.track.pivot.fitted_pivot`). :func:`kinematics_input` is what `fit` reads: a
+fit of their path (:func:`pendtrack.track.axle.fitted_pivot`). :func:`kinematics_input` is what `fit` reads: a
 kinematics artifact as it is, or this stage's derivatives of any other record, in memory.
 """
 
@@ -20,7 +20,7 @@ from pendtrack.errors import ArtifactError
 from pendtrack.kinematics.record import differentiate_record, kinematic_columns, kinematics_table
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.tables import Record, TableSpec, read_record
-from pendtrack.track.pivot import fitted_pivot
+from pendtrack.track.axle import fitted_pivot
 
 FILENAME = SCHEMAS["kinematics"].filename
 

@@ -1,12 +1,14 @@
-"""theta(t) from a track: the lens check, the axle (given, or a circle fit with its uncertainty), the zero.
+"""The axle a pendulum swings about, and theta(t) about it.
 
-:func:`angle_table` is what the angle stage writes (and ``pt.angle`` returns): its columns, its
-provenance facts and the stage's facts. No files here.
+:func:`angle_table` is what the angle stage writes (and ``pt.angle`` returns): the lens check, the
+axle (given, or a circle fit with its uncertainty), theta and its zero. :func:`fitted_pivot` is the
+pivot of a measured x, y path (a table of positions without ``--pivot``). No files here.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -15,12 +17,42 @@ import numpy as np
 import pandas as pd
 
 from pendtrack.config import AngleConfig, LensConfig
-from pendtrack.errors import ConfigError, TrackingError
+from pendtrack.errors import ArtifactError, ConfigError, TrackingError
 from pendtrack.track.angle import theta_from_track
 from pendtrack.track.circle import circle_uncertainty, fit_circle
 from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
 
 log = logging.getLogger(__name__)
+
+MIN_ARC_RAD = 0.1  # a path spanning less arc (~6 deg) does not locate its pivot: --pivot is needed
+
+
+def fitted_pivot(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], dict[str, Any]]:
+    """The pivot of an x, y path: the centre of a robust circle fit (:func:`pendtrack.track.circle.fit_circle`).
+
+    Parameters
+    ----------
+    x, y : ndarray
+        Positions (any length unit).
+
+    Returns
+    -------
+    (px, py), facts
+        The centre, and ``radius``, ``rms`` (radial residual) and ``arc_deg`` for the provenance.
+
+    Raises
+    ------
+    ArtifactError
+        The path covers too little arc (below :data:`MIN_ARC_RAD`) to locate the centre.
+    """
+    scale = float(np.hypot(np.ptp(x), np.ptp(y))) if x.size else 0.0
+    fit = fit_circle(x, y, f_scale=max(0.01 * scale, 1e-12)) if x.size >= 3 and scale > 0 else None
+    if fit is None or fit.arc_span < MIN_ARC_RAD:
+        span = 0.0 if fit is None else math.degrees(fit.arc_span)
+        raise ArtifactError(f"the x, y path spans {span:.2g} deg of arc, too little to fit its pivot: "
+                            "give --pivot X Y")
+    return (fit.xc, fit.yc), {"radius": fit.radius, "rms": fit.rms, "arc_deg": math.degrees(fit.arc_span)}
+
 
 MIN_ARC_SPAN_DEG = 20.0  # a shorter arc locates the axle poorly: theta with a warning stating its uncertainty
 # theta is given only while the axle's uncertainty scales it by at most this share (a 5 % scale error on theta
