@@ -1,7 +1,7 @@
 """Field conditions in the renderer: lens, frame rates and sizes, the bob's look, framing, hand, roll, sticker.
 
 Each condition is a key of ``[render]`` and a flag of ``pendtrack render``; ``pendtrack run``
-on such renders is scored in ``tests/test_field_run.py``.
+on such renders is scored in ``tests/track/test_field_run.py``.
 """
 
 from __future__ import annotations

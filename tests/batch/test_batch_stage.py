@@ -3,7 +3,7 @@
 The stand-in job (module level, so workers import it by name) reads a tiny JSON "video"
 and writes a track.parquet and one fit.json per model through the artifact contract, so
 these tests exercise scheduling, resuming and summarising in seconds, independent of the
-real stages (tests/test_batch_pipeline.py runs those).
+real stages (tests/batch/test_batch_pipeline.py runs those).
 """
 
 import json

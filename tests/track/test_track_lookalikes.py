@@ -16,7 +16,8 @@ from test_track_cli import invoke, one_line_error
 from pendtrack.artifacts import read_artifact
 from pendtrack.track.swing import crossing_times, period_from_crossings, swing_of_track
 
-_spec = importlib.util.spec_from_file_location("make_test_videos", Path(__file__).parent / "data" / "make_test_videos.py")
+_spec = importlib.util.spec_from_file_location("make_test_videos",
+                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mtv)
 

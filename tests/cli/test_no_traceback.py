@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from pendtrack.artifacts import read_artifact
 from pendtrack.cli import cli
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 _spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mtv)

@@ -21,7 +21,7 @@ from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import read_input
 from pendtrack.tables import TableSpec, parse_column_name, parse_columns, read_record, theta_warnings, uniform_grid
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():  # the work tree may sit elsewhere; the shared data do not move
     REAL = Path("/work/shared/data/real-tyler-phy180/lab1_data.txt")

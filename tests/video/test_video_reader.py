@@ -12,7 +12,7 @@ from pendtrack.errors import VideoError
 from pendtrack.video.reader import VideoReader, prefetch_depth, probe_video, read_frame
 
 _spec = importlib.util.spec_from_file_location("make_test_videos",
-                                               Path(__file__).parent / "data" / "make_test_videos.py")
+                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mtv)
 

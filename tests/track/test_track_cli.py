@@ -14,7 +14,7 @@ from pendtrack.config import Config
 from pendtrack.errors import TrackingError
 from pendtrack.stages.track import track_stage
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 _spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mtv)

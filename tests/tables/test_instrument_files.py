@@ -380,7 +380,7 @@ def test_not_a_tracker_project(tmp_path):
 # --- legitimate radians stay radians --------------------------------------------------------------
 
 def test_real_records_read_without_unit_errors():
-    real = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real-tyler-phy180"
+    real = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "real-tyler-phy180"
     if not real.is_dir():
         real = Path("/work/shared/data/real-tyler-phy180")
     if not real.is_dir():

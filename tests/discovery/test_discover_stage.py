@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from pendtrack.artifacts import DISCOVERY_JSON_KEYS
 from pendtrack.cli import cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():  # the work tree may sit elsewhere; the shared data do not move
     REAL = Path("/work/shared/data/real-tyler-phy180/lab1_data.txt")

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():
     REAL = Path("/work/shared/data/real-tyler-phy180/lab1_data.txt")

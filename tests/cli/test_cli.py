@@ -63,7 +63,7 @@ def test_console_script_entry_point_runs():
 
 def test_run_with_a_bad_config_value_fails_before_any_stage(tmp_path):
     # a real video: without the load-time check, `run` would track it whole before the kinematics stage failed
-    video = Path(__file__).resolve().parents[1] / "sample_videos" / "12na1.mp4"
+    video = Path(__file__).resolve().parents[2] / "sample_videos" / "12na1.mp4"
     bad = tmp_path / "x.toml"
     bad.write_text("[kinematics]\nsavgol_window_s = -1\n")
     out = tmp_path / "out"

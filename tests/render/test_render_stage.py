@@ -46,7 +46,7 @@ def test_same_seed_gives_identical_truth_and_frames(tmp_path):
     assert not np.array_equal(fa[0], fc[0])  # the seed matters (noise, wall)
 
 
-# Every field condition at once (tests/test_render_field.py): a normal lens, a blue ball on a
+# Every field condition at once (tests/render/test_render_field.py): a normal lens, a blue ball on a
 # string with a sticker, the axle above the frame, a hand letting go, a rolled camera, 60 fps.
 FIELD = dict(lens_projection="none", lens_fov_deg=70.0, camera_offset_m=(0.0, 0.2), marker_color="blue",
              marker_shape="ball", rig="string", sticker_color="pink", hand_release_s=0.1, camera_roll_deg=2.0,

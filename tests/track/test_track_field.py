@@ -3,7 +3,7 @@ poster, a sticker on the bob, a bead on the bar, a start and an end time; the ru
 the evolving template's drift alarm.
 
 Videos: the renderer as a library, post-processed (``tests/field_videos.py``). Accuracy is
-compared with the renderer's truth as in ``tests/test_track_rendered.py`` (the run still
+compared with the renderer's truth as in ``tests/track/test_track_rendered.py`` (the run still
 swings at its end, so theta's zero is the image vertical and theta is compared with the
 truth directly).
 """
@@ -27,7 +27,8 @@ from pendtrack.track.sampler import RawSampler
 from pendtrack.track.tracker import TrackParams, template_drift, track_frames
 from pendtrack.video.reader import VideoReader
 
-_spec = importlib.util.spec_from_file_location("make_test_videos", Path(__file__).parent / "data" / "make_test_videos.py")
+_spec = importlib.util.spec_from_file_location("make_test_videos",
+                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(mtv)
 

@@ -74,7 +74,7 @@ def test_wrong_field_of_view_inflates_the_circle_residual(rendered_run, tmp_path
     for corrected in (False, True):
         for fov in (120.0, 110.0):
             # lens_check = warn: the angle stage's lens check would stop at 110 deg (its own tests:
-            # tests/test_lens_check.py); this test looks at the residual it is built on
+            # tests/track/test_lens_check.py); this test looks at the residual it is built on
             cfg = (Config().replace("lens", fov_deg=fov).replace("track", track_in_corrected=corrected)
                    .replace("angle", lens_check="warn"))
             _, angle = _run(folder, tmp_path / f"{corrected}{fov}", cfg)
