@@ -29,7 +29,7 @@ from pendtrack.config import Config
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
-pytestmark = pytest.mark.slow  # four processes that each compile the kernels from nothing
+pytestmark = [pytest.mark.slow, pytest.mark.integration]  # four processes that each compile the kernels from nothing
 
 MODELS = ("classic", "fractional")
 RUNTIME_KEYS = ("runtime_s", "provenance")

@@ -59,6 +59,7 @@ def _without_run_dependent(rec: dict) -> dict:
     return {k: v for k, v in rec.items() if k not in RUN_DEPENDENT}
 
 
+@pytest.mark.integration
 def test_import_is_free() -> None:
     code = ("import sys, pendtrack; heavy = [m for m in ('numpy', 'pandas', 'numba', 'cv2', 'av', 'scipy', "
             "'matplotlib') if m in sys.modules]; print(','.join(heavy))")
@@ -66,6 +67,7 @@ def test_import_is_free() -> None:
     assert out.stdout.strip() == ""
 
 
+@pytest.mark.integration
 def test_door_fits_equal_the_cli_files_to_the_last_digit(cli_fit: Path, door_fit: pt.FitSet) -> None:
     for name in ("standard", "classic"):
         written = json.loads((cli_fit / f"fit_{name}.json").read_text(encoding="utf-8"))
@@ -77,6 +79,7 @@ def test_door_fits_equal_the_cli_files_to_the_last_digit(cli_fit: Path, door_fit
     assert door_fit.selected == combined["selected"] and door_fit.selected in ("standard", "classic")
 
 
+@pytest.mark.integration
 def test_results_render_as_html_tables_and_plot_figures(door_fit: pt.FitSet) -> None:
     from matplotlib.figure import Figure
 
@@ -86,6 +89,7 @@ def test_results_render_as_html_tables_and_plot_figures(door_fit: pt.FitSet) -> 
     assert isinstance(door_fit.plot(), Figure) and isinstance(door_fit["standard"].plot(), Figure)
 
 
+@pytest.mark.integration
 def test_load_round_trips_a_cli_folder(cli_fit: Path, door_fit: pt.FitSet) -> None:
     run = pt.load(cli_fit)
     assert run.fits.to_dict() == json.loads((cli_fit / "fit.json").read_text(encoding="utf-8"))
@@ -94,6 +98,7 @@ def test_load_round_trips_a_cli_folder(cli_fit: Path, door_fit: pt.FitSet) -> No
     assert list(run.fits) == list(door_fit)
 
 
+@pytest.mark.integration
 def test_out_writes_what_the_cli_writes(record: dict[str, Path], door_fit: pt.FitSet, tmp_path: Path) -> None:
     kin = pt.kinematics(pt.read_record(record["table"]))
     again = pt.fit(kin, "standard", config=record["config"], out=tmp_path)
@@ -102,6 +107,7 @@ def test_out_writes_what_the_cli_writes(record: dict[str, Path], door_fit: pt.Fi
     assert _without_run_dependent(again["standard"].to_dict()) == _without_run_dependent(door_fit["standard"].to_dict())
 
 
+@pytest.mark.integration
 def test_user_errors_are_the_cli_one_line_errors(record: dict[str, Path], tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="starts") as exc:
         pt.fit(pt.read_record(record["table"]), "standard", starts=0)

@@ -27,6 +27,8 @@ from pendtrack.cli import cli
 from pendtrack.config import Config
 from pendtrack.stages.batch import batch_stage
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # rendered videos through the batch stage (processes, Dask)
+
 SECONDS = 3.0
 # 640x360 and theta0 = 1.5 rad: ~2.5 swings in 3 s (enough turning points for the fit's estimates).
 RENDER = {"width": 640, "height": 360, "theta0": 1.5}

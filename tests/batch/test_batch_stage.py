@@ -34,6 +34,8 @@ from pendtrack.config import Config
 from pendtrack.errors import VideoError
 from pendtrack.stages.batch import batch_stage
 
+pytestmark = pytest.mark.integration  # the batch stage and its CLI, worker processes and a killed subprocess
+
 HERE = Path(__file__).resolve().parent
 
 

@@ -4,10 +4,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from pendtrack import __version__
 from pendtrack.cli import COMMANDS, cli
+
+pytestmark = pytest.mark.integration  # the CLI as a user runs it (in process and as the console script)
 
 
 def invoke(*args):

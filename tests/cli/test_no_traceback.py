@@ -18,6 +18,8 @@ from click.testing import CliRunner
 from pendtrack.artifacts import read_artifact
 from pendtrack.cli import cli
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # `track`, `angle` and `run` on videos through the CLI
+
 DATA = Path(__file__).resolve().parents[1] / "data"
 _spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.integration  # discovery in subprocesses under two code generations
+
 ROOT = Path(__file__).resolve().parents[2]
 REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():

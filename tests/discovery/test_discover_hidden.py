@@ -51,6 +51,8 @@ from pendtrack.discovery.inputs import AngleSeries
 from pendtrack.discovery.search import discover
 from pendtrack.discovery.synthetic import ARTEFACTS, HIDDEN_EFFECTS, HIDDEN_PAIRS, draw_run
 
+pytestmark = pytest.mark.integration  # discovery's whole search (every candidate fit) on each synthetic run
+
 BASE_SEED = int(os.environ.get("PENDTRACK_DISCOVER_SEED", "20250"))
 KINDS: tuple[str | None, ...] = (None, *HIDDEN_EFFECTS)
 # CI-size records at 30 fps (a phone's rate); discovery's cost grows with the samples, so each kind

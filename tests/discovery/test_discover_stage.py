@@ -12,6 +12,8 @@ from click.testing import CliRunner
 from pendtrack.artifacts import DISCOVERY_JSON_KEYS
 from pendtrack.cli import cli
 
+pytestmark = pytest.mark.integration  # `pendtrack discover` end to end
+
 ROOT = Path(__file__).resolve().parents[2]
 REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
 if not REAL.is_file():  # the work tree may sit elsewhere; the shared data do not move
@@ -127,6 +129,7 @@ def test_help_lists_discover():
     assert res.exit_code == 0 and "--effects" in res.output and "--baseline" in res.output
 
 
+@pytest.mark.video
 @pytest.mark.slow
 def test_video_with_memory_is_discovered(rendered_run, tmp_path):
     # The renderer takes registered model names only; "fractional" (quarter-power friction +

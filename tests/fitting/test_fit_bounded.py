@@ -211,6 +211,7 @@ def _invoke(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
+@pytest.mark.integration
 def test_fit_exit_codes(kin_file, tmp_path, monkeypatch):
     ok = _invoke("fit", kin_file, "--model", "standard", "--starts", "2", "--workers", "1", "-q", "--out", tmp_path / "a")
     assert ok.exit_code == 0, ok.output
@@ -244,6 +245,7 @@ def test_fit_exit_codes(kin_file, tmp_path, monkeypatch):
     assert err.exit_code == 2
 
 
+@pytest.mark.integration
 def test_run_exit_code_follows_the_fit(monkeypatch, tmp_path):
     # `run` applies the same rule to its fit stage's facts (the pipeline itself is stubbed here:
     # the video stages are tested elsewhere)

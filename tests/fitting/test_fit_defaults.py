@@ -48,6 +48,7 @@ def test_fit_model_has_no_loose_copy_of_a_config_default():
     assert loose == {"seed": None, "workers": None}
 
 
+@pytest.mark.integration
 def test_library_and_cli_defaults_give_the_same_fit(tmp_path):
     # a short record (6 s at 60 Hz: the default 150 starts stay cheap) through the kinematics stage
     t = np.arange(6 * 60) / 60.0

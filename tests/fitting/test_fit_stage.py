@@ -15,6 +15,8 @@ from pendtrack.config import Config
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
+pytestmark = pytest.mark.integration  # the fit stage and `pendtrack fit` end to end
+
 STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
 
 

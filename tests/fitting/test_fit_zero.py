@@ -67,6 +67,7 @@ def vertical_fit(tmp_path_factory):
     return d / "fit", out
 
 
+@pytest.mark.integration
 def test_a_vertical_zero_is_fitted_as_theta_off(vertical_fit):
     out_dir, out = vertical_fit
     rec = read_json_artifact(out_dir / "fit_standard.json", required=FIT_JSON_KEYS)
@@ -83,6 +84,7 @@ def test_a_vertical_zero_is_fitted_as_theta_off(vertical_fit):
     assert combined["model"] == "standard" and "theta_off" in combined["params"]
 
 
+@pytest.mark.integration
 def test_a_measured_rest_fits_as_before(tmp_path):
     path = _angle(tmp_path / "angle.parquet", "rest")
     fit_stage(path, out_dir=tmp_path / "fit", config=FAST, models=("standard",), progress=False)
@@ -98,6 +100,7 @@ def test_a_measured_rest_fits_as_before(tmp_path):
     assert "theta_off" not in json.loads((tmp_path / "never" / "fit_standard.json").read_text())["params"]
 
 
+@pytest.mark.integration
 def test_fit_cli_on_a_plain_table_reports_theta_off(tmp_path):
     t, theta = _theta()
     table = tmp_path / "lab.txt"

@@ -267,6 +267,7 @@ def _angle_file(tmp_path: Path, *, seconds: float = 20.0) -> Path:
     return path
 
 
+@pytest.mark.integration
 def test_stage_writes_kinematics_and_skips_when_up_to_date(tmp_path: Path) -> None:
     angle = _angle_file(tmp_path)
     res = kinematics_stage(angle, out_dir=tmp_path / "out", config=Config(), progress=False)
@@ -284,6 +285,7 @@ def test_stage_writes_kinematics_and_skips_when_up_to_date(tmp_path: Path) -> No
     assert not kinematics_stage(angle, out_dir=tmp_path / "out", config=changed, progress=False).skipped
 
 
+@pytest.mark.integration
 def test_cli_kinematics(tmp_path: Path) -> None:
     angle = _angle_file(tmp_path, seconds=8.0)
     runner = CliRunner()

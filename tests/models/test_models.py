@@ -197,6 +197,7 @@ def test_non_uniform_time_is_interpolated() -> None:
     np.testing.assert_allclose(fast.omega, ref.omega, atol=2e-5)
 
 
+@pytest.mark.integration
 def test_import_compiles_nothing() -> None:
     code = ("import sys, pendtrack.models, pendtrack.kinematics; "
             "assert 'numba' not in sys.modules, 'numba imported at import time'; "

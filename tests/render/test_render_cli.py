@@ -13,6 +13,8 @@ def invoke(*args: str):
     return CliRunner().invoke(cli, list(args))
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_render_happy_path(tmp_path):
     out = tmp_path / "run"
     result = invoke("render", "--seconds", "0.1", "--size", "320x180", "--out", str(out), "-q",
@@ -30,6 +32,8 @@ def test_render_happy_path(tmp_path):
     assert again.exit_code == 0 and "up to date" in again.stdout
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_render_name_by_run_code(tmp_path):
     result = invoke("render", "--seconds", "0.05", "--size", "160x96", "--out", str(tmp_path), "-q",
                     "--tile", "24", "--omega0", "-1", "--trial", "2", "--name-by-run-code")
@@ -37,6 +41,7 @@ def test_render_name_by_run_code(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["24ln2.mp4", "24ln2.truth.parquet"]
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("args, fragment", [
     (["--size", "garbage"], "--size must look like WIDTHxHEIGHT"),
     (["--seconds", "-1"], "render.seconds must be > 0"),
@@ -57,6 +62,7 @@ def test_render_bad_argument(tmp_path, args, fragment):
     assert not out.exists()
 
 
+@pytest.mark.integration
 def test_render_a_composed_model(tmp_path):
     """`--model baseline+term` in any term order: the composed model, named in catalogue order."""
     out = tmp_path / "run"

@@ -113,6 +113,8 @@ def test_camera_roll_adds_to_theta_in_the_image(projection):
     assert (float(x), float(y)) == pytest.approx((0.1, 0.2), abs=1e-12)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_roll_is_recorded_and_the_truth_stays_physical(tmp_path):
     out = render_stage(out_dir=tmp_path, config=Config().replace("render", **SMALL, camera_roll_deg=-3.0),
                        progress=False)
@@ -161,6 +163,8 @@ def test_hand_release_within_a_frame_blurs_and_shares_the_exposure():
     assert motion.theta[k] == 2.0 and motion.omega[k] == 0.0  # mid-exposure: still held
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_hand_is_drawn_while_it_holds(tmp_path):
     cfg = Config().replace("render", width=640, height=360, seconds=1.0, fps=30.0, theta0=1.0, hand_release_s=0.5)
     out = render_stage(out_dir=tmp_path, config=cfg, progress=False)
@@ -178,6 +182,8 @@ def test_hand_is_drawn_while_it_holds(tmp_path):
     assert not (r2 > g2 > b2 and r2 - b2 > 40)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 @pytest.mark.parametrize("colour, channel", [("dark", None), ("blue", 0), ("#20c020", 1)])
 def test_bob_colour_and_sticker(tmp_path, colour, channel):
     cfg = Config().replace("render", width=640, height=360, seconds=0.05, theta0=0.5, marker_color=colour,
@@ -211,6 +217,8 @@ def test_string_rig_has_the_ball_pendulums_omega0_unless_given():
     assert len(kinds) == 3  # string, hook, bob: no bar, disc or tile
 
 
+@pytest.mark.video
+@pytest.mark.integration
 @pytest.mark.parametrize("fps, size, n", [(30.0, (640, 360), 6), (60.0, (640, 360), 12), (60.0, (1920, 1080), 3)])
 def test_frame_rates_and_1080p(tmp_path, fps, size, n):
     seconds = n / fps
@@ -232,6 +240,7 @@ def test_frame_rates_and_1080p(tmp_path, fps, size, n):
     assert np.hypot((w * uu).sum() / w.sum() - pu, (w * vv).sum() / w.sum() - pv) < 1.0
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("values, fragment", [
     (dict(marker_color="green"), "render.marker_color"),
     (dict(sticker_color="nope"), "render.sticker_color"),
@@ -272,6 +281,8 @@ def test_marker_reflectance():
         marker_reflectance("#12345")
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_render_cli_takes_the_field_condition_flags(tmp_path):
     args = ["render", "--seconds", "0.5", "--size", "320x180", "--fps", "30", "--out", str(tmp_path), "-q",
             "--projection", "none", "--fov", "70", "--camera-offset", "0,0.22", "--camera-distance", "0.6",

@@ -34,6 +34,8 @@ def decode(path) -> tuple[list[np.ndarray], list[float]]:
     return frames, times
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_same_seed_gives_identical_truth_and_frames(tmp_path):
     a = render_stage(out_dir=tmp_path / "a", config=small_config(seed=5), progress=False)
     b = render_stage(out_dir=tmp_path / "b", config=small_config(seed=5), progress=False)
@@ -58,6 +60,8 @@ def _render_sha(out_dir, field: bool = False) -> str:
     return hashlib.sha256(out.paths[0].read_bytes()).hexdigest()
 
 
+@pytest.mark.video
+@pytest.mark.integration
 @pytest.mark.parametrize("field", [False, True], ids=["paper", "field_conditions"])
 def test_render_is_bit_identical_across_calls_and_processes(tmp_path, field):
     # The same seed and size give the same video file, byte for byte: in one process, with
@@ -79,6 +83,7 @@ def test_render_is_bit_identical_across_calls_and_processes(tmp_path, field):
     assert len(shas) == 1
 
 
+@pytest.mark.video
 def test_video_and_truth_agree(rendered_run):
     out = rendered_run(seconds=0.25, width=640, height=360, theta0=1.0)
     truth = read_artifact(out / "truth.parquet", "truth")
@@ -96,6 +101,7 @@ def test_video_and_truth_agree(rendered_run):
         assert stream.average_rate == Fraction(120)
 
 
+@pytest.mark.video
 def test_decoded_spot_is_where_the_truth_says(rendered_run):
     # End to end (lens, blur, noise, H.264): the pink blob of the first frames lies at the
     # projected spot. 0.5 px: chroma is subsampled 2x2 and the blob's centroid itself is
@@ -115,6 +121,8 @@ def test_decoded_spot_is_where_the_truth_says(rendered_run):
         assert np.hypot((w * u).sum() / w.sum() - pu, (w * v).sum() / w.sum() - pv) < 0.5
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_name_by_run_code(tmp_path):
     cfg = small_config(seconds=0.05, tile_length_m=0.06, alley=True, omega0=-1.0, trial=2)
     out = render_stage(out_dir=tmp_path, config=cfg, progress=False, name_by_run_code=True)
@@ -125,6 +133,8 @@ def test_name_by_run_code(tmp_path):
                      name_by_run_code=True)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_up_to_date_outputs_are_skipped_unless_forced(tmp_path):
     cfg = small_config(seconds=0.05)
     first = render_stage(out_dir=tmp_path, config=cfg, progress=False)
@@ -136,6 +146,7 @@ def test_up_to_date_outputs_are_skipped_unless_forced(tmp_path):
     assert not render_stage(out_dir=tmp_path, config=cfg, progress=False).skipped
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("values, error, fragment", [
     (dict(seconds=-1.0), ConfigError, "render.seconds"),
     (dict(width=321), ConfigError, "render.width"),
@@ -150,6 +161,7 @@ def test_bad_input_raises_and_writes_nothing(tmp_path, values, error, fragment):
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
+@pytest.mark.video
 def test_writer_leaves_no_partial_file_on_error(tmp_path):
     path = tmp_path / "v.mp4"
     with pytest.raises(RuntimeError):
@@ -163,6 +175,7 @@ def test_writer_leaves_no_partial_file_on_error(tmp_path):
         VideoWriter(path, width=63, height=48, fps=30)
 
 
+@pytest.mark.video
 def test_writer_keeps_colours(tmp_path):
     # BT.601 limited range with rounding to nearest: greys stay grey within one level
     frames = [np.full((48, 64, 3), level, np.uint8) for level in (0, 16, 128, 200, 255)]

@@ -50,6 +50,7 @@ def run_report(tmp_path_factory):
     return run, out, out.path.read_text(encoding="utf-8")
 
 
+@pytest.mark.integration
 def test_run_report_has_every_figure_drawn_and_not_blank(run_report):
     run, out, html = run_report
     assert out.path == run / REPORT_NAME and not out.skipped
@@ -60,6 +61,7 @@ def test_run_report_has_every_figure_drawn_and_not_blank(run_report):
         assert not_blank(png), key
 
 
+@pytest.mark.integration
 def test_run_report_is_self_contained(run_report):
     _, _, html = run_report
     assert 'http-equiv="Content-Security-Policy"' in html and "default-src 'none'" in html
@@ -70,6 +72,7 @@ def test_run_report_is_self_contained(run_report):
     assert "<script" not in html.replace('<script type="application/json" id="pendtrack-provenance">', "")
 
 
+@pytest.mark.integration
 def test_run_report_tables_and_narrative(run_report):
     _, _, html = run_report
     for key in ("fit-quality", "params-classic", "params-opa", "params-fractional", "relations", "discovery-steps",
@@ -81,6 +84,7 @@ def test_run_report_tables_and_narrative(run_report):
     assert "<h3>Discovery</h3>" in html and "<code>power_drag</code>" in html  # discovery.md rendered
 
 
+@pytest.mark.integration
 def test_run_report_provenance_and_up_to_date(run_report, tmp_path):
     run, out, html = run_report
     record = read_provenance(html)
@@ -91,6 +95,7 @@ def test_run_report_provenance_and_up_to_date(run_report, tmp_path):
     assert forced.path == tmp_path / REPORT_NAME and not forced.skipped
 
 
+@pytest.mark.integration
 def test_changed_input_makes_report_stale(tmp_path):
     run = write_run(tmp_path / "06nn2", seconds=6.0, models=("classic",), discovery=False, stages=("fit",))
     report_stage(run, config=Config(), progress=False)
@@ -164,6 +169,7 @@ def test_report_write_is_atomic_on_failure(tmp_path, monkeypatch):
     assert not list(run.glob(".report.html.*"))
 
 
+@pytest.mark.integration
 def test_bad_folders_raise_pendtrack_errors(tmp_path):
     with pytest.raises(ArtifactError, match="folder not found"):
         report_stage(tmp_path / "nope", config=Config(), progress=False)
@@ -180,6 +186,7 @@ def test_bad_folders_raise_pendtrack_errors(tmp_path):
         write_run_report(bad)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("case", ["missing", "empty"])
 def test_cli_bad_input_is_one_line_error_exit_2(tmp_path, case):
     folder = tmp_path / case
@@ -191,6 +198,7 @@ def test_cli_bad_input_is_one_line_error_exit_2(tmp_path, case):
     assert len(lines) == 1 and lines[0].startswith(f"error: {folder}: "), res.output
 
 
+@pytest.mark.integration
 def test_cli_writes_and_prints_the_path(tmp_path):
     run = write_run(tmp_path / "18la1", seconds=6.0, stages=("track", "angle"), discovery=False)
     res = CliRunner().invoke(cli, ["report", str(run), "-q"])
@@ -209,6 +217,7 @@ def batch_report(tmp_path_factory):
     return batch, out, out.path.read_text(encoding="utf-8")
 
 
+@pytest.mark.integration
 def test_batch_report_figures_and_links(batch_report):
     batch, out, html = batch_report
     assert out.facts["kind"] == "batch" and out.facts["run_reports"] == 2
@@ -223,6 +232,7 @@ def test_batch_report_figures_and_links(batch_report):
     assert "notes.mp4" in html  # skipped file listed
 
 
+@pytest.mark.integration
 def test_batch_report_up_to_date_until_a_run_report_appears(batch_report):
     batch, _, _ = batch_report
     assert report_stage(batch, config=Config(), progress=False).skipped

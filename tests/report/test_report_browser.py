@@ -32,6 +32,8 @@ from pendtrack.config import Config
 from pendtrack.stages.report import report_stage
 from test_report import RUN_FIGURES
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # a rendered video through the pipeline, opened in Chromium
+
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--no-first-run"]
 

@@ -66,6 +66,7 @@ def test_units_that_do_not_fit_are_refused():
 
 # --- plain encoder logs and the unit checks -------------------------------------------------
 
+@pytest.mark.integration
 def test_encoder_log_in_degrees_is_an_error_then_reads_with_the_unit(tmp_path):
     src = tmp_path / "encoder.csv"  # an encoder log `Time,Angle` in degrees
     src.write_text("Time,Angle\n" + _rows(T, np.degrees(THETA)))
@@ -109,6 +110,7 @@ def _encoder_us(jitter: float, seed: int = 4) -> tuple[np.ndarray, np.ndarray, C
     return t, motion(t), motion
 
 
+@pytest.mark.integration
 def test_headerless_us_degree_log_with_jitter(tmp_path):
     t, theta, motion = _encoder_us(jitter=0.3)
     src = tmp_path / "encoder.txt"  # headerless: t in µs, theta in degrees, real sampling jitter
@@ -189,6 +191,7 @@ def test_logger_pro_latest_run(tmp_path):
     np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
 
 
+@pytest.mark.integration
 def test_logger_pro_runs_side_by_side(tmp_path):
     n2 = 200  # run 2 is shorter: its cells are empty below
     src = tmp_path / "runs.csv"
@@ -258,6 +261,7 @@ def test_tracker_data_export_more_columns(tmp_path):
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
 
 
+@pytest.mark.integration
 def test_tracker_protractor_export_in_degrees(tmp_path):
     src = tmp_path / "protractor.txt"
     src.write_text("protractor A\nt\tθ\n" + _rows(T, np.degrees(THETA), sep="\t"))
@@ -341,6 +345,7 @@ def test_image_to_world_inverts_trackers_transform():
         np.testing.assert_allclose(y, Y, atol=1e-12)
 
 
+@pytest.mark.integration
 def test_tracker_project(tmp_path):
     # marks off the clip's steps (frame 1 before the start, frame 4 between steps) are left out
     src = tmp_path / "swing.trk"
@@ -356,6 +361,7 @@ def test_tracker_project(tmp_path):
     assert res.exit_code == 0 and "Omega0 = 4.9" in res.output, res.output
 
 
+@pytest.mark.integration
 def test_tracker_project_with_two_tracks(tmp_path):
     src = tmp_path / "two.trk"
     src.write_text(_trk([_point_mass("mass A", X, Y, {}), _point_mass("bob", X[::-1], Y[::-1], {})]))

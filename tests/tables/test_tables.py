@@ -136,6 +136,7 @@ def test_every_form_reads_the_same_t_theta(tmp_path, form):
     assert rec.ok.all() and rec.info["resampled"] is None and rec.warnings == ()
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("form", FORMS)
 def test_kinematics_fit_and_discover_agree_on_every_form(tmp_path, form, reference, fast_fit, monkeypatch):
     src, flags = _write(tmp_path, form)
@@ -176,6 +177,7 @@ def test_kinematics_fit_and_discover_agree_on_every_form(tmp_path, form, referen
     np.testing.assert_allclose(seen["series"].theta, THETA, rtol=0, atol=1e-9)
 
 
+@pytest.mark.integration
 def test_fit_of_a_table_equals_fit_of_its_kinematics_file(tmp_path, reference, fast_fit):
     src, _ = _write(tmp_path, "plain")
     assert invoke("kinematics", str(src), "--out", str(tmp_path), "-q").exit_code == 0
@@ -189,6 +191,7 @@ def test_fit_of_a_table_equals_fit_of_its_kinematics_file(tmp_path, reference, f
     assert "input" not in prov["config"] and "table" not in prov["config"]  # a kinematics file: as before
 
 
+@pytest.mark.integration
 def test_table_flags_make_outputs_stale(tmp_path):
     src, _ = _write(tmp_path, "xy_fitted")
     out = tmp_path / "k"
@@ -240,6 +243,7 @@ def _one_line_error(res, *fragments: str) -> str:
 COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
@@ -268,18 +272,21 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.integration
 def test_bad_columns_flag_is_a_one_line_usage_error(tmp_path):
     src, _ = _write(tmp_path, "plain")
     _one_line_error(invoke("kinematics", str(src), "--columns", "t,omega", "--out", str(tmp_path / "o")),
                     "--columns", "unknown column name 'omega'")
 
 
+@pytest.mark.integration
 def test_kinematics_artifact_is_refused_by_kinematics(tmp_path, reference):
     p = tmp_path / "kinematics.parquet"
     write_artifact(reference["kinematics"], p, "kinematics", provenance=Provenance(stage="kinematics"))
     _one_line_error(invoke("kinematics", str(p), "--out", str(tmp_path / "o")), "already differentiated")
 
 
+@pytest.mark.integration
 def test_xy_path_too_short_to_fit_its_pivot(tmp_path):
     src = tmp_path / "xy.txt"
     tiny = 1e-3 * THETA  # a 0.03 deg swing
@@ -320,6 +327,7 @@ def test_plausible_angles_do_not_warn():
     assert theta_warnings(over) == []
 
 
+@pytest.mark.integration
 def test_cli_prints_the_warning_and_records_it(tmp_path):
     src = tmp_path / "x.txt"
     src.write_text(_lines(T, X + 0.5))
@@ -367,6 +375,7 @@ def test_slightly_uneven_times_are_resampled_by_a_cubic_spline(tmp_path):
     assert np.max(np.abs(rec.theta - truth)) < 1e-6
 
 
+@pytest.mark.integration
 def test_kinematics_then_fit_on_phone_timestamps(tmp_path, fast_fit):
     # before: kinematics accepted these times and `fit` refused them ("not on a uniform grid")
     t, theta = _jittered(seconds=8.0, jitter=0.2)
@@ -400,6 +409,7 @@ def test_gaps_stay_gaps():
     assert uniform_grid(np.arange(600) / RATE) is None
 
 
+@pytest.mark.integration
 def test_lab1_needs_columns_and_then_reads_20_hz(tmp_path):
     if not REAL.is_file():
         pytest.skip(f"real data not found at {REAL}")

@@ -21,6 +21,8 @@ import pytest
 
 from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # `pendtrack run` in a subprocess on rendered field videos
+
 DEFAULT = ("dark_string_normal_lens_30fps_axle_out", "blue_ball_hand_60fps")
 MODELS = ("classic", "opa", "fractional")
 

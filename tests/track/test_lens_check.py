@@ -112,6 +112,8 @@ def tracked(tmp_path_factory):
     return out
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_normal_lens_tracked_as_fisheye_stops_angle_with_one_line(tracked, tmp_path):
     d = tracked["normal"]
     with pytest.raises(ConfigError, match="lens mismatch") as err:
@@ -134,6 +136,8 @@ def test_normal_lens_tracked_as_fisheye_stops_angle_with_one_line(tracked, tmp_p
     assert note is not None and note.kind == "error" and "Lens mismatch" in note.text
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_run_stops_on_the_mismatch_and_works_with_the_flag_it_names(tracked, tmp_path):
     video = tracked["normal"] / "video.mp4"
     res = CliRunner().invoke(cli, ["run", str(video), "--out", str(tmp_path), "-q"])
@@ -148,6 +152,8 @@ def test_run_stops_on_the_mismatch_and_works_with_the_flag_it_names(tracked, tmp
     assert check["verdict"] == "consistent" and check["best"] == "configured"
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_a_lens_the_user_named_is_kept_with_a_warning(tracked, tmp_path, caplog):
     # the fisheye footage tracked as the user said, with a normal lens: the check warns, the run goes on
     d = tracked["fisheye"]
@@ -160,6 +166,8 @@ def test_a_lens_the_user_named_is_kept_with_a_warning(tracked, tmp_path, caplog)
     assert any("lens mismatch" in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_paper_fisheye_render_raises_no_alarm(tracked):
     d = tracked["fisheye"]
     res = angle_stage(d / "track.parquet", out_dir=d, config=Config(), progress=False)
@@ -173,6 +181,8 @@ def test_paper_fisheye_render_raises_no_alarm(tracked):
     assert "check: consistent" in text and note is None
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_axle_on_the_optical_axis_is_undecided_not_an_alarm(tracked):
     d = tracked["on_axis"]
     res = angle_stage(d / "track.parquet", out_dir=d, config=Config(), progress=False)
@@ -183,6 +193,8 @@ def test_axle_on_the_optical_axis_is_undecided_not_an_alarm(tracked):
     assert "undecided" in text and note is not None and note.kind == "info"
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_lens_check_off_and_bad_values(tracked, tmp_path):
     d = tracked["normal"]
     res = angle_stage(d / "track.parquet", out_dir=tmp_path, config=Config().replace("angle", lens_check="off"),

@@ -37,6 +37,8 @@ def test_path_shape(path, radius, shape):
     assert path_shape(path, marker_radius=radius, diagonal=DIAGONAL) == shape
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_a_pink_object_carried_past_while_the_hand_hides_the_marker_is_not_taken(tmp_path):
     # before: the only moving pink blob while the hand is there (the wanderer) was acquired at once
     fv = field_video(tmp_path / "wander.mp4", seconds=2.0, fps=60.0, hand_s=0.6, wanderer=True)

@@ -14,6 +14,8 @@ from pendtrack.config import Config
 from pendtrack.errors import TrackingError
 from pendtrack.stages.track import track_stage
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # `track`, `angle` and `undistort` end to end on small videos
+
 DATA = Path(__file__).resolve().parents[1] / "data"
 _spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
 mtv = importlib.util.module_from_spec(_spec)

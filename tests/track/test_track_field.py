@@ -54,6 +54,8 @@ def hand_poster_sticker(tmp_path_factory):
     return fv, read_artifact(tr.path, "track"), read_artifact(an.path, "angle")
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_marker_found_in_the_first_frame_where_it_shows_not_the_poster(hand_poster_sticker):
     fv, track, angle = hand_poster_sticker
     acq = track.provenance.extra["acquisition"]
@@ -71,6 +73,8 @@ def test_marker_found_in_the_first_frame_where_it_shows_not_the_poster(hand_post
     assert np.median(dist) < 3.0, np.median(dist)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_theta_within_2_mrad_after_the_hand(hand_poster_sticker):
     fv, track, angle = hand_poster_sticker
     assert angle.provenance.extra["zero_reference"] == "vertical"
@@ -82,6 +86,8 @@ def test_theta_within_2_mrad_after_the_hand(hand_poster_sticker):
     assert np.sqrt(np.mean(d[ok] ** 2)) <= RMS_MAX
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_the_larger_of_two_swinging_blobs_is_the_marker(tmp_path):
     # a smaller pink bead on the bar, nearer the axle, swings with the spot: both move
     fv = field_video(tmp_path / "bead.mp4", seconds=1.5, fps=60.0, bead=True)
@@ -102,6 +108,8 @@ def swing_60(tmp_path_factory):
     return path, truth
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_start_and_end_keep_the_videos_times(swing_60, tmp_path):
     path, truth = swing_60
     cfg = Config().replace("video", start=0.5, end=1.0).replace("lens", projection="none")
@@ -116,6 +124,7 @@ def test_start_and_end_keep_the_videos_times(swing_60, tmp_path):
     assert np.hypot(df.x_px - truth[30:61, 1], df.y_px - truth[30:61, 2]).max() < 0.6
 
 
+@pytest.mark.video
 def test_reader_range_and_errors(swing_60):
     path, _ = swing_60
     with VideoReader(path, start=1.2) as reader:
@@ -128,6 +137,8 @@ def test_reader_range_and_errors(swing_60):
             VideoReader(path, start=start, end=end)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_start_after_the_end_is_a_one_line_error(swing_60, tmp_path):
     path, _ = swing_60
     res = CliRunner().invoke(main, ["track", str(path), "--start", "9", "--out", str(tmp_path), "-q"])
@@ -136,6 +147,8 @@ def test_start_after_the_end_is_a_one_line_error(swing_60, tmp_path):
     assert res.exit_code == 2 and "--start" in res.output and "Traceback" not in res.output
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_run_takes_the_flags_of_its_stages(monkeypatch, tmp_path, swing_60):
     import pendtrack.stages.run as run_mod
 
@@ -159,6 +172,8 @@ def test_run_takes_the_flags_of_its_stages(monkeypatch, tmp_path, swing_60):
     assert c.angle.axle == (10.0, -20.0) and c.kinematics.savgol_window_s == 0.1
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_error_texts_name_flags_that_run_has(tmp_path):
     # the flags the track and angle stages suggest in their messages
     help_text = CliRunner().invoke(main, ["run", "--help"]).output

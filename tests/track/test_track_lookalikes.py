@@ -66,6 +66,8 @@ def dark_corner(tmp_path_factory):
     return fv
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_a_dark_corner_is_never_the_marker(dark_corner, tmp_path):
     fv = dark_corner
     res = invoke("track", fv.path, "--projection", "none", "--marker-color", "dark", "--out", tmp_path, "-q")
@@ -81,6 +83,8 @@ def test_a_dark_corner_is_never_the_marker(dark_corner, tmp_path):
     assert art.provenance.extra["swing"]["swings"]
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_a_point_that_does_not_swing_is_an_error(tmp_path):
     video = tmp_path / "still.mp4"
     mtv.write_swing_video(video, width=160, height=120, n_frames=60, radius=6, pivot=(80, 20), arm=60, amplitude=0.0)
@@ -97,12 +101,16 @@ def twins(tmp_path_factory):
     return field_video(d / "video.mp4", seconds=3.0, fps=30.0, width=480, height=272, twin=True)
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_two_pendulums_in_view_are_an_error_naming_roi(twins, tmp_path):
     res = invoke("track", twins.path, "--out", tmp_path, "-q")
     one_line_error(res, "two pendulums in view", "--roi")
     assert not (tmp_path / "track.parquet").exists()
 
 
+@pytest.mark.video
+@pytest.mark.integration
 def test_with_roi_the_track_stays_on_that_pendulum(twins, tmp_path):
     fv = twins
     x, y = fv.spot[0]

@@ -16,6 +16,8 @@ from pendtrack.lens.fisheye import Fisheye
 from pendtrack.stages.angle import angle_stage
 from pendtrack.stages.track import track_stage
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # the track and angle stages on rendered videos
+
 # Targets of the issue: RMS <= 1 mrad and max <= 5 mrad over ok frames, >= 99.5 % ok.
 RMS_MAX, ERR_MAX, OK_MIN = 1e-3, 5e-3, 0.995
 

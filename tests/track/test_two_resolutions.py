@@ -17,6 +17,8 @@ import numpy as np
 import pytest
 from field_run import render_condition
 
+pytestmark = [pytest.mark.video, pytest.mark.integration]  # `pendtrack run` in a subprocess on two renders
+
 BLUE_STRING = dict(rig="string", marker_color="blue", marker_shape="ball", spot_radius_m=0.02, lens_projection="none",
                    lens_fov_deg=70.0, camera_offset_m=(0.0, 0.13), theta0=0.8, fps=60.0, seconds=8.0)
 

@@ -36,6 +36,7 @@ def _grey_frames(n=12, h=48, w=64):
     return [np.full((h, w, 3), 20 * i % 250, np.uint8) for i in range(n)]
 
 
+@pytest.mark.video
 def test_planes_shapes_and_times(tmp_path):
     video = _encode(tmp_path / "v.mp4", _grey_frames(), fps=30)
     info = probe_video(video)
@@ -49,6 +50,7 @@ def test_planes_shapes_and_times(tmp_path):
     assert abs(frames[5][5] - (16 + 100 * 219 / 255)) < 3
 
 
+@pytest.mark.video
 def test_bgr_of_a_frame_round_trips_colour(tmp_path):
     img = np.zeros((48, 64, 3), np.uint8)
     img[:] = (180, 105, 255)  # pink, BGR
@@ -58,6 +60,7 @@ def test_bgr_of_a_frame_round_trips_colour(tmp_path):
     np.testing.assert_allclose(f.bgr()[24, 32].astype(float), (180, 105, 255), atol=6)
 
 
+@pytest.mark.video
 def test_variable_frame_rate_times_survive(tmp_path):
     times = np.cumsum(np.r_[0, np.tile([0.008, 0.009, 0.0085], 6)])  # irregular steps [s]
     mtv.write_swing_video(tmp_path / "vfr.mp4", width=96, height=64, n_frames=times.size, fps=120.0,
@@ -67,6 +70,7 @@ def test_variable_frame_rate_times_survive(tmp_path):
     np.testing.assert_allclose(t, times - times[0], atol=1e-3)  # timestamps are stored in ms
 
 
+@pytest.mark.video
 def test_fps_override(tmp_path):
     video = _encode(tmp_path / "v.mp4", _grey_frames(5), fps=30)
     with VideoReader(video, fps=120.0) as reader:
@@ -74,6 +78,7 @@ def test_fps_override(tmp_path):
     np.testing.assert_allclose(t, np.arange(5) / 120)
 
 
+@pytest.mark.video
 def test_other_pixel_formats_are_converted(tmp_path):
     video = _encode(tmp_path / "v444.mp4", _grey_frames(3), pix_fmt="yuv444p")
     with VideoReader(video) as reader:
@@ -81,6 +86,7 @@ def test_other_pixel_formats_are_converted(tmp_path):
     assert shapes == [((48, 64), (24, 32))] * 3
 
 
+@pytest.mark.video
 def test_threaded_decoding_gives_the_same_frames(tmp_path):
     video = _encode(tmp_path / "v.mp4", _grey_frames(8))
     with VideoReader(video) as a, VideoReader(video, threads=True) as b:
@@ -88,11 +94,13 @@ def test_threaded_decoding_gives_the_same_frames(tmp_path):
             assert fa.t == fb.t and np.array_equal(fa.y, fb.y)
 
 
+@pytest.mark.video
 def test_missing_file(tmp_path):
     with pytest.raises(VideoError, match=r"absent\.mp4: file not found"):
         VideoReader(tmp_path / "absent.mp4")
 
 
+@pytest.mark.video
 def test_not_a_video(tmp_path):
     p = tmp_path / "notes.mp4"
     p.write_text("this is not a video\n" * 50)
@@ -100,6 +108,7 @@ def test_not_a_video(tmp_path):
         VideoReader(p)
 
 
+@pytest.mark.video
 def test_truncated_video_moov_at_end(tmp_path):
     good = _encode(tmp_path / "v.mp4", _grey_frames(30))
     bad = tmp_path / "cut.mp4"
@@ -117,6 +126,7 @@ def _cut_faststart(tmp_path, n=40, keep=0.6):
     return bad
 
 
+@pytest.mark.video
 def test_a_cut_file_is_a_warning_and_its_frames_are_used(tmp_path, caplog):
     # faststart: the header declares 40 frames, the data of the later ones is missing (decoding fails part-way)
     bad = _cut_faststart(tmp_path)
@@ -154,6 +164,7 @@ def _with_filler_samples(path, n=30, fps=30):
     return path
 
 
+@pytest.mark.video
 def test_a_wrong_declared_frame_count_is_a_hint(tmp_path, caplog):
     video = _with_filler_samples(tmp_path / "filler.mp4")
     assert probe_video(video).n_frames > 40  # the container's count is wrong ...
@@ -165,6 +176,7 @@ def test_a_wrong_declared_frame_count_is_a_hint(tmp_path, caplog):
     assert not [r for r in caplog.records if r.levelname == "WARNING"]
 
 
+@pytest.mark.video
 def test_zero_frame_video(tmp_path):
     # a valid header (moov first) whose media data is gone: a video stream without frames
     good = _encode(tmp_path / "v.mp4", _grey_frames(10), faststart=True)
@@ -185,6 +197,7 @@ def test_prefetch_depth_fills_the_memory_budget():
     assert prefetch_depth(0, 192.0, 1920, 1080) == 0  # no prefetching whatever the budget
 
 
+@pytest.mark.video
 def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
     video = _encode(tmp_path / "v.mp4", _grey_frames(20))
     with VideoReader(video) as a, VideoReader(video, prefetch=3) as b, VideoReader(video, prefetch=3,
@@ -209,6 +222,7 @@ def test_prefetch_gives_the_same_frames_and_errors(tmp_path):
                     raise RuntimeError("consumer gave up")
 
 
+@pytest.mark.video
 def test_prefetch_shortens_the_gil_switch_interval_only_while_it_runs(tmp_path):
     import sys
 
