@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from factory import swing
 
 import pendtrack as pt
 from pendtrack.cli import cli
@@ -26,9 +27,7 @@ RUN_DEPENDENT = ("runtime_s", "provenance")
 def record(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """A 12-s standard-model swing from 2.5 rad with 3 mrad noise as a two-column table, and a config."""
     d = tmp_path_factory.mktemp("door")
-    t = np.arange(12 * 120) / 120.0
-    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
+    t, theta = swing("standard", STANDARD, seconds=12.0, theta0=2.5, noise=3e-3)
     table = d / "swing.csv"
     table.write_text("t,theta\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, theta)), encoding="utf-8")
     config = d / "few.toml"

@@ -7,23 +7,19 @@ Parquet file left in the output folder reads back whole, and none of the stage t
 Videos are small synthetic swings (``tests/data/make_test_videos.py``) and lens renders.
 """
 
-import importlib.util
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from factory import write_swing_video
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.cli import cli
 
 pytestmark = [pytest.mark.video, pytest.mark.integration]  # `track`, `angle` and `run` on videos through the CLI
 
-DATA = Path(__file__).resolve().parents[1] / "data"
-_spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
-mtv = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mtv)
 
 FLAG_OR_KEY = r"--[a-z]|\[[a-z]+\]|'[a-z]+\.[a-z_]+'"
 ARTIFACT_KIND = {"track.parquet": "track", "angle.parquet": "angle", "kinematics.parquet": "kinematics",
@@ -50,7 +46,7 @@ def videos(tmp_path_factory):
     out = {}
     for name, kw in VIDEOS.items():
         out[name] = d / f"{name}.mp4"
-        mtv.write_swing_video(out[name], width=160, height=120, radius=6.0, **kw)
+        write_swing_video(out[name], width=160, height=120, radius=6.0, **kw)
     (d / "empty.mp4").write_bytes(b"")
     (d / "corrupt.mp4").write_bytes(np.random.default_rng(0).integers(0, 256, 5000, dtype=np.uint8).tobytes())
     good = out["good"].read_bytes()
@@ -157,8 +153,8 @@ def test_run_to_the_end(videos, tmp_path, name):
     video = videos.get(name)
     if name == "long":  # 6 s of swinging: every stage runs
         video = tmp_path / "long.mp4"
-        mtv.write_swing_video(video, width=160, height=120, radius=6.0, n_frames=360, amplitude=1.0, period_s=1.0,
-                              **IN_FRAME)
+        write_swing_video(video, width=160, height=120, radius=6.0, n_frames=360, amplitude=1.0, period_s=1.0,
+                          **IN_FRAME)
     out = tmp_path / "out"
     res = _invoke("run", video, "--projection", "none", "--config", videos["config"], "--out", out, "-q")
     _check(res, out, failed_kinds=(), names=(video.name, ".parquet", "--", "["))

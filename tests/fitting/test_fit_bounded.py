@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from factory import swing
 
 from pendtrack.artifacts import Provenance, write_artifact
 from pendtrack.cli import cli
@@ -18,7 +19,7 @@ from pendtrack.config import Config, FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import fit_model
 from pendtrack.fitting.result import plausibility_flags, split_findings
-from pendtrack.models import get_model, simulate
+from pendtrack.models import get_model
 from pendtrack.fitting.models_fit import fit_problems
 from pendtrack.stages.kinematics import kinematics_stage
 
@@ -27,9 +28,7 @@ FAST = replace(FitConfig(), n_starts=2, workers=1, profile=False)
 
 
 def _record(seconds: float = 20.0, rate: float = 60.0, seed: int = 0):
-    t = np.arange(int(seconds * rate)) / rate
-    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(seed).normal(0.0, 3e-3, t.size)
+    t, theta = swing("standard", STANDARD, seconds=seconds, fps=rate, theta0=2.5, noise=3e-3, seed=seed)
     return t, theta, np.gradient(theta, t)
 
 
@@ -69,9 +68,7 @@ def test_too_gappy_record_fails_with_a_one_line_fit_error():
 def test_few_turning_points_fit_or_say_why(periods):
     # 2.6 periods: ~5 turning points, the fit runs (its damping is then flagged, not converged-and-quoted);
     # 1.6 periods: too few, one line saying how many there are and how many are needed
-    t = np.arange(int(periods * 2 * np.pi / 5.0 * 120)) / 120.0
-    sim = simulate(get_model("standard"), STANDARD, t, theta0=1.0, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
+    t, theta = swing("standard", STANDARD, seconds=periods * 2 * np.pi / 5.0, theta0=1.0, noise=3e-3)
     try:
         res = fit_model(get_model("classic"), t, theta, np.gradient(theta, t), options=FAST)
     except FitError as exc:

@@ -6,17 +6,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from synthetic_problems import FS, synthetic_problem
+from factory import filtered, swing, synthetic_problem
 
 from pendtrack.config import FitConfig
 from pendtrack.errors import FitError
-from pendtrack.fitting import Observation, fit_model
+from pendtrack.fitting import fit_model
 from pendtrack.fitting.leastsq.coordinates import fit_coordinates
 from pendtrack.fitting.fitter import check_options
 from pendtrack.fitting.leastsq.local_fits import local_fit
 from pendtrack.fitting.uncertainty import hac_covariance
-from pendtrack.kinematics import savgol_kinematics
-from pendtrack.models import get_model, simulate
+from pendtrack.models import get_model
 
 TRUTHS = {
     "classic": {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": 1.7, "Ca": 0.01},
@@ -112,11 +111,7 @@ def test_the_memory_models_whole_fit_ends_at_the_same_minimum_in_either_coordina
     # says (either coordinates, ~1e-6 relative apart); the fit's profile polish finishes the best start
     m = get_model("fractional")
     truth = TRUTHS["fractional"]
-    t = np.arange(int(20.0 * FS)) / FS
-    sim = simulate(m, truth, t, theta0=2.8, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(4).normal(0.0, 3e-3, t.size)
-    kin = savgol_kinematics(t, theta, window_s=25 / FS, order=3)
-    obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=3)
+    kin, obs = filtered(*swing(m, truth, seconds=20.0, theta0=2.8, noise=3e-3, seed=4))
     fits = {}
     for coords in ("natural", "decorrelated"):
         options = FitConfig(n_starts=6, profile=False, coordinates=coords)

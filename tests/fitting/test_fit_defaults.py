@@ -12,16 +12,15 @@ from __future__ import annotations
 import dataclasses
 import inspect
 
-import numpy as np
-import pandas as pd
 import pytest
 from click.testing import CliRunner
+from factory import angle_file, swing
 
-from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_artifact, read_json_artifact, write_artifact
+from pendtrack.artifacts import FIT_JSON_KEYS, read_artifact, read_json_artifact
 from pendtrack.cli import cli
 from pendtrack.config import Config, FitConfig, ModelsConfig
 from pendtrack.fitting import Observation, fit_model
-from pendtrack.models import get_model, simulate
+from pendtrack.models import get_model
 from pendtrack.stages.kinematics import kinematics_stage
 
 TRUTH = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
@@ -51,12 +50,8 @@ def test_fit_model_has_no_loose_copy_of_a_config_default():
 @pytest.mark.integration
 def test_library_and_cli_defaults_give_the_same_fit(tmp_path):
     # a short record (6 s at 60 Hz: the default 150 starts stay cheap) through the kinematics stage
-    t = np.arange(6 * 60) / 60.0
-    sim = simulate(get_model("standard"), TRUTH, t, theta0=2.5, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
-    angle = tmp_path / "angle.parquet"
-    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), angle, "angle",
-                   provenance=Provenance(stage="test"))
+    t, theta = swing("standard", TRUTH, seconds=6.0, fps=60.0, theta0=2.5, noise=3e-3)
+    angle = angle_file(tmp_path / "angle.parquet", t, theta)
     kin = kinematics_stage(angle, out_dir=tmp_path, config=Config(), progress=False).path
 
     res = CliRunner().invoke(cli, ["fit", str(kin), "--model", "standard", "--starts", str(N_STARTS), "--workers", "1",

@@ -13,14 +13,14 @@ import math
 
 import numpy as np
 import pytest
+from factory import filtered, swing
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting import Observation, fit_model
+from pendtrack.fitting import fit_model
 from pendtrack.fitting.leastsq.equation_error import equation_error_estimates, oscillation_center
 from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 from pendtrack.fitting.result import plausibility_flags
-from pendtrack.kinematics import savgol_kinematics
-from pendtrack.models import compose, get_model, simulate
+from pendtrack.models import compose, get_model
 
 FS = 120.0
 SECONDS = 30.0
@@ -38,11 +38,8 @@ def options() -> FitConfig:
 
 def record(measured):  # noqa: ANN001, ANN201
     """(t, theta, omega, alpha, ok, observation) of the standard model seen through ``measured(theta)``."""
-    t = np.arange(int(SECONDS * FS)) / FS
-    sim = simulate(get_model("standard"), TRUTH, t, theta0=THETA0, omega0=0.0)
-    theta = measured(sim.theta) + np.random.default_rng(7).normal(0.0, NOISE, t.size)
-    kin = savgol_kinematics(t, theta, window_s=25 / FS, order=3)
-    obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=int(kin.info["order"]))
+    kin, obs = filtered(*swing("standard", TRUTH, seconds=SECONDS, theta0=THETA0, noise=NOISE, seed=7,
+                               measured=measured))
     return kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, obs
 
 

@@ -16,14 +16,13 @@ One seed per model runs by default; 5 seeds per model are ``slow``.
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
+from factory import filtered, swing
 
 from pendtrack.config import FitConfig
-from pendtrack.fitting import Observation, fit_model
+from pendtrack.fitting import fit_model
 from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
-from pendtrack.kinematics import savgol_kinematics
-from pendtrack.models import get_model, simulate
+from pendtrack.models import get_model
 
 FS = 120.0
 SECONDS = 60.0
@@ -48,11 +47,7 @@ TRUTHS = {
 
 def record(name: str, seed: int, truth: dict[str, float]):
     """(t, theta, omega, alpha, ok, observation) of a synthetic run of model ``name``."""
-    t = np.arange(int(SECONDS * FS)) / FS
-    sim = simulate(get_model(name), truth, t, theta0=THETA0, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(1000 + seed).normal(0.0, NOISE, t.size)
-    kin = savgol_kinematics(t, theta, window_s=25 / FS, order=3)
-    obs = Observation(savgol_window=int(kin.info["window_points"]), savgol_order=int(kin.info["order"]))
+    kin, obs = filtered(*swing(name, truth, seconds=SECONDS, theta0=THETA0, noise=NOISE, seed=1000 + seed))
     return kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, obs
 
 

@@ -8,11 +8,11 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from factory import angle_file, swing
 
 from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_artifact, read_json_artifact, write_artifact
 from pendtrack.cli import cli
 from pendtrack.config import Config
-from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
 pytestmark = pytest.mark.integration  # the fit stage and `pendtrack fit` end to end
@@ -28,12 +28,7 @@ def invoke(*args: str):
 def kin_file(tmp_path_factory: pytest.TempPathFactory):
     """kinematics.parquet of a 20 s standard-model swing from 2.5 rad, 3 mrad noise (via the kinematics stage)."""
     d = tmp_path_factory.mktemp("fitstage")
-    t = np.arange(20 * 120) / 120.0
-    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(0).normal(0.0, 3e-3, t.size)
-    angle = d / "angle.parquet"
-    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), angle, "angle",
-                   provenance=Provenance(stage="test"))
+    angle = angle_file(d / "angle.parquet", *swing("standard", STANDARD, seconds=20.0, theta0=2.5, noise=3e-3))
     return kinematics_stage(angle, out_dir=d, config=Config(), progress=False).path
 
 

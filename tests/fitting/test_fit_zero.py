@@ -14,12 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from factory import swing
 
 from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_json_artifact, write_artifact
 from pendtrack.cli import cli
 from pendtrack.config import Config
 from pendtrack.fitting.models_fit import fits_offset
-from pendtrack.models import get_model, simulate
 from pendtrack.stages.fit import fit_stage
 from pendtrack.stages.kinematics import zero_reference
 from pendtrack.tables import read_record
@@ -30,9 +30,7 @@ FAST = Config().replace("fit", n_starts=2, workers=1, profile=False)
 
 
 def _theta() -> tuple[np.ndarray, np.ndarray]:
-    t = np.arange(20 * 120) / 120.0
-    sim = simulate(get_model("standard"), STANDARD, t, theta0=2.5, omega0=0.0)
-    return t, sim.theta + OFFSET + np.random.default_rng(3).normal(0.0, 1e-3, t.size)
+    return swing("standard", STANDARD, seconds=20.0, theta0=2.5, noise=1e-3, seed=3, measured=lambda th: th + OFFSET)
 
 
 def _angle(path, zero: str | None):  # noqa: ANN001, ANN202

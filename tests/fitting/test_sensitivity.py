@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from synthetic_problems import FS, synthetic_problem
+from factory import FS, synthetic_problem
 
 from pendtrack.config import FitConfig
 from pendtrack.fitting.leastsq.local_fits import local_fit

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 from scipy.special import binom, erfcx, gamma
+from factory import mittag_leffler, solve_gl_fde
 
 from pendtrack.errors import ModelError
 from pendtrack.models.gl import gl_derivative, gl_weights
-from reference_solutions import mittag_leffler, solve_gl_fde
 
 
 def _orders(errors: list[float]) -> np.ndarray:

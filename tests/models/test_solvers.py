@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from factory import damped_linear, inertial_speed
 
 from pendtrack.models import get_model, simulate, simulate_packed
 from pendtrack.models import terms as T
-from reference_solutions import damped_linear, inertial_speed
 
 STANDARD = {"Omega0": 5.05, "C1": 0.01, "C0": 0.01, "C2": 0.002}
 CLASSIC = {"Omega0": 5.05, "C0": 0.01, "C3": 0.05, "p": 1.7, "Ca": 0.05}

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from factory import swing
 
 from pendtrack.artifacts import Provenance, read_artifact, read_metadata, write_artifact
 from pendtrack.cli import cli
@@ -34,9 +35,7 @@ SWING = {"Omega0": 5.0, "C1": 0.1, "C0": 0.05, "C2": 0.05}
 
 
 def _swing(seconds: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
-    t = np.arange(int(seconds * RATE)) / RATE
-    sim = simulate(get_model("standard"), SWING, t, theta0=1.0, omega0=0.0)
-    return t, sim.theta + np.random.default_rng(0).normal(0.0, 1e-3, t.size)
+    return swing("standard", SWING, seconds=seconds, fps=RATE, theta0=1.0, noise=1e-3)
 
 
 def _lines(*cols: np.ndarray, sep: str = " ") -> str:

@@ -18,8 +18,7 @@ condition alone, the balls on the paper's bar) are marked slow. A target missed 
 from __future__ import annotations
 
 import pytest
-
-from field_run import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
+from factory import CONDITIONS, OK_MIN, OMEGA0_REL_MAX, THETA_RMS_MAX, flags_for, render_condition, run_and_score
 
 pytestmark = [pytest.mark.video, pytest.mark.integration]  # `pendtrack run` in a subprocess on rendered field videos
 

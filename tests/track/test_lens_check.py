@@ -11,7 +11,7 @@ a circle for any lens, so only an off-axis axle tells lenses apart).
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from lens_videos import lens_video
+from factory import lens_video
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.cli import cli

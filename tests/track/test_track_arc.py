@@ -5,7 +5,7 @@ near the frame; something pink carried past while a hand hides the marker is not
 
 import numpy as np
 import pytest
-from field_videos import field_video
+from factory import field_video
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.config import Config

@@ -7,7 +7,7 @@ Video: a small render (``tests/field_videos.py``), 4 s at 60 fps, 640x360, a sec
 
 import numpy as np
 import pytest
-from field_videos import field_video
+from factory import field_video
 from test_track_cli import invoke
 
 from pendtrack.artifacts import read_artifact

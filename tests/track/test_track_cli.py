@@ -1,12 +1,10 @@
 """`pendtrack track / angle / undistort` end to end on small videos: other footage, bad input."""
 
-import importlib.util
-from pathlib import Path
-
 import av
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from factory import TEST_DATA, write_swing_video
 
 from pendtrack.artifacts import inputs_for, read_artifact
 from pendtrack.cli import cli
@@ -15,11 +13,6 @@ from pendtrack.errors import TrackingError
 from pendtrack.stages.track import track_stage
 
 pytestmark = [pytest.mark.video, pytest.mark.integration]  # `track`, `angle` and `undistort` end to end on small videos
-
-DATA = Path(__file__).resolve().parents[1] / "data"
-_spec = importlib.util.spec_from_file_location("make_test_videos", DATA / "make_test_videos.py")
-mtv = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mtv)
 
 
 def invoke(*args):
@@ -38,8 +31,8 @@ def one_line_error(res, *fragments):
 def pink_video(tmp_path_factory):
     """A pink spot on a grey bar swinging about a pivot in the frame; frames 25..34 painted over."""
     path = tmp_path_factory.mktemp("pink") / "pink.mp4"
-    truth = mtv.write_swing_video(path, width=320, height=240, n_frames=80, fps=60.0, radius=9.0,
-                                  pivot=(160.0, 70.0), arm=120.0, amplitude=1.0, period_s=1.2, hide=(25, 35))
+    truth = write_swing_video(path, width=320, height=240, n_frames=80, fps=60.0, radius=9.0,
+                              pivot=(160.0, 70.0), arm=120.0, amplitude=1.0, period_s=1.2, hide=(25, 35))
     return path, truth
 
 
@@ -47,10 +40,10 @@ def pink_video(tmp_path_factory):
 
 @pytest.mark.parametrize("flags", [("--marker-color", "dark"), ("--roi", "232,150,30,30")])
 def test_dark_ball_on_pale_wall(tmp_path, flags):
-    res = invoke("track", DATA / "dark_ball.mp4", *flags, "--projection", "none", "--out", tmp_path, "-q")
+    res = invoke("track", TEST_DATA / "dark_ball.mp4", *flags, "--projection", "none", "--out", tmp_path, "-q")
     assert res.exit_code == 0, res.output
     track = read_artifact(tmp_path / "track.parquet", "track").data
-    truth = np.loadtxt(DATA / "dark_ball_truth.csv", delimiter=",", skiprows=1)
+    truth = np.loadtxt(TEST_DATA / "dark_ball_truth.csv", delimiter=",", skiprows=1)
     assert track.ok.all()
     err = np.hypot(track.x - truth[:, 1], track.y - truth[:, 2])
     # crf-18 H.264 of a 10 px ball: ~0.07 px rms measured; 0.2 / 0.4 px leave a margin
@@ -142,16 +135,16 @@ def bad_inputs(tmp_path_factory, pink_video):
     notvideo = d / "notes.mp4"
     notvideo.write_text("not a video\n" * 100)
     faststart = d / "fs.mp4"
-    mtv.write_swing_video(faststart, width=160, height=120, n_frames=40, radius=6, pivot=(80, 20), arm=60,
-                          faststart=True)
+    write_swing_video(faststart, width=160, height=120, n_frames=40, radius=6, pivot=(80, 20), arm=60,
+                      faststart=True)
     swinging = d / "fs_long.mp4"  # long enough that what is left of it still swings
-    mtv.write_swing_video(swinging, width=160, height=120, n_frames=90, radius=6, pivot=(80, 20), arm=60,
-                          period_s=0.5, faststart=True)
+    write_swing_video(swinging, width=160, height=120, n_frames=90, radius=6, pivot=(80, 20), arm=60,
+                      period_s=0.5, faststart=True)
     data = faststart.read_bytes()
     zero = d / "zero.mp4"
     zero.write_bytes(data[: data.find(b"mdat") + 4])
     nomarker = d / "wall.mp4"
-    mtv.write_swing_video(nomarker, width=160, height=120, n_frames=5, hide=(0, 5))
+    write_swing_video(nomarker, width=160, height=120, n_frames=5, hide=(0, 5))
     return {
         "missing": (d / "absent.mp4", "file not found"),
         "not a video": (notvideo, "not a readable video"),
@@ -184,8 +177,8 @@ def test_a_cut_file_tracks_the_frames_it_has_with_a_warning(tmp_path, bad_inputs
 
 def test_marker_that_never_reappears_is_an_error(tmp_path):
     video = tmp_path / "gone.mp4"
-    mtv.write_swing_video(video, width=160, height=120, n_frames=30, radius=6, pivot=(80, 20), arm=60,
-                          hide=(3, 30))
+    write_swing_video(video, width=160, height=120, n_frames=30, radius=6, pivot=(80, 20), arm=60,
+                      hide=(3, 30))
     with pytest.raises(TrackingError, match="marker lost in 27 of 30 frames"):
         track_stage(video, out_dir=tmp_path, config=Config(), progress=False)
     assert not (tmp_path / "track.parquet").exists()
@@ -202,8 +195,8 @@ def test_bad_flags_are_one_line_errors(tmp_path, pink_video):
 def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outside_the_frame(tmp_path):
     # +-0.02 rad on a 480 px arm, the axle 400 px above the frame: the arc's sagitta (0.1 px) is below the noise
     video = tmp_path / "short.mp4"
-    mtv.write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -400), arm=480,
-                          amplitude=0.02, period_s=0.5)
+    write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -400), arm=480,
+                      amplitude=0.02, period_s=0.5)
     cfg = Config().replace("lens", projection="none")
     track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
     res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
@@ -215,8 +208,8 @@ def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outs
 def test_a_short_arc_with_the_axle_out_of_frame_gives_theta_with_its_uncertainty(tmp_path, caplog):
     # +-10 deg on a 560 px arm, the axle 400 px above a 320x240 frame (issue 27's bauble, smaller): an 18 deg arc
     video = tmp_path / "bauble.mp4"
-    truth = mtv.write_swing_video(video, width=320, height=240, n_frames=150, radius=9, pivot=(160, -400), arm=560,
-                                  amplitude=np.radians(9.0), period_s=1.0)
+    truth = write_swing_video(video, width=320, height=240, n_frames=150, radius=9, pivot=(160, -400), arm=560,
+                              amplitude=np.radians(9.0), period_s=1.0)
     track_stage(video, out_dir=tmp_path, config=Config().replace("lens", projection="none"), progress=False)
     with caplog.at_level("WARNING"):
         res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path, "-q")

@@ -8,13 +8,10 @@ swings at its end, so theta's zero is the image vertical and theta is compared w
 truth directly).
 """
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from field_videos import field_video
+from factory import field_video, write_swing_video
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.cli import cli as main
@@ -27,10 +24,6 @@ from pendtrack.track.sampler import RawSampler
 from pendtrack.track.tracker import TrackParams, template_drift, track_frames
 from pendtrack.video.reader import VideoReader
 
-_spec = importlib.util.spec_from_file_location("make_test_videos",
-                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
-mtv = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mtv)
 
 # Issue #15's targets on the frames where the marker is visible.
 OK_MIN, RMS_MAX = 0.99, 2e-3
@@ -104,7 +97,7 @@ def test_the_larger_of_two_swinging_blobs_is_the_marker(tmp_path):
 def swing_60(tmp_path_factory):
     path = tmp_path_factory.mktemp("se") / "swing.mp4"
     # a period of 0.45 s: the 0.5 s of a --start/--end range see it swing (across and back)
-    truth = mtv.write_swing_video(path, n_frames=90, fps=60.0, radius=8.0, period_s=0.45)
+    truth = write_swing_video(path, n_frames=90, fps=60.0, radius=8.0, period_s=0.45)
     return path, truth
 
 
@@ -181,7 +174,7 @@ def test_error_texts_name_flags_that_run_has(tmp_path):
                  "--fov", "--window-s"):
         assert flag in help_text, flag
     video = tmp_path / "wall.mp4"
-    mtv.write_swing_video(video, width=160, height=120, n_frames=5, hide=(0, 5))
+    write_swing_video(video, width=160, height=120, n_frames=5, hide=(0, 5))
     res = CliRunner().invoke(main, ["run", str(video), "--out", str(tmp_path / "o"), "-q"])
     assert res.exit_code == 2 and "--marker-color" in res.output and "--start" in res.output
 

@@ -5,21 +5,14 @@ with --roi the track stays on the one chosen.
 Videos: small renders post-processed (``tests/field_videos.py``), a few seconds each.
 """
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
-from field_videos import field_video
+from factory import field_video, write_swing_video
 from test_track_cli import invoke, one_line_error
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.track.swing import crossing_times, period_from_crossings, swing_of_track
 
-_spec = importlib.util.spec_from_file_location("make_test_videos",
-                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
-mtv = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mtv)
 
 # a dark ball on a string, normal lens, the axle above the frame (issue 27's first video, smaller)
 DARK_STRING = dict(rig="string", marker_color="dark", marker_shape="ball", spot_radius_m=0.015, lens_projection="none",
@@ -87,7 +80,7 @@ def test_a_dark_corner_is_never_the_marker(dark_corner, tmp_path):
 @pytest.mark.integration
 def test_a_point_that_does_not_swing_is_an_error(tmp_path):
     video = tmp_path / "still.mp4"
-    mtv.write_swing_video(video, width=160, height=120, n_frames=60, radius=6, pivot=(80, 20), arm=60, amplitude=0.0)
+    write_swing_video(video, width=160, height=120, n_frames=60, radius=6, pivot=(80, 20), arm=60, amplitude=0.0)
     res = invoke("track", video, "--out", tmp_path / "out", "-q")
     one_line_error(res, "does not swing", "--roi")
     assert not (tmp_path / "out" / "track.parquet").exists()

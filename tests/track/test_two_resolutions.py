@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 import pytest
-from field_run import render_condition
+from factory import render_condition
 
 pytestmark = [pytest.mark.video, pytest.mark.integration]  # `pendtrack run` in a subprocess on two renders
 

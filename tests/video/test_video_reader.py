@@ -1,20 +1,14 @@
 """Video reader: planes, presentation timestamps (VFR), fps override and bad files."""
 
 import fractions
-import importlib.util
-from pathlib import Path
 
 import av
 import numpy as np
 import pytest
+from factory import write_swing_video
 
 from pendtrack.errors import VideoError
 from pendtrack.video.reader import VideoReader, prefetch_depth, probe_video, read_frame
-
-_spec = importlib.util.spec_from_file_location("make_test_videos",
-                                               Path(__file__).resolve().parents[1] / "data" / "make_test_videos.py")
-mtv = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mtv)
 
 
 def _encode(path, frames, *, fps=30, pix_fmt="yuv420p", faststart=False):
@@ -63,8 +57,8 @@ def test_bgr_of_a_frame_round_trips_colour(tmp_path):
 @pytest.mark.video
 def test_variable_frame_rate_times_survive(tmp_path):
     times = np.cumsum(np.r_[0, np.tile([0.008, 0.009, 0.0085], 6)])  # irregular steps [s]
-    mtv.write_swing_video(tmp_path / "vfr.mp4", width=96, height=64, n_frames=times.size, fps=120.0,
-                          radius=5, pivot=(48, 5), arm=40, times=times)
+    write_swing_video(tmp_path / "vfr.mp4", width=96, height=64, n_frames=times.size, fps=120.0,
+                      radius=5, pivot=(48, 5), arm=40, times=times)
     with VideoReader(tmp_path / "vfr.mp4") as reader:
         t = np.array([f.t for f in reader])
     np.testing.assert_allclose(t, times - times[0], atol=1e-3)  # timestamps are stored in ms
