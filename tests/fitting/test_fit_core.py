@@ -190,6 +190,7 @@ def test_toy_local_fit_recovers_truth_through_the_ladder():
     assert out.x[1] == pytest.approx(0.05, rel=0.05)
 
 
+@pytest.mark.integration
 def test_starts_in_worker_processes_equal_serial_run():
     t, th, om, _ = toy_data(seconds=8.0)
     prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)
@@ -208,6 +209,7 @@ def test_starts_in_worker_processes_equal_serial_run():
         assert (a.cost, a.nfev, a.message) == (alone.cost, alone.nfev, alone.message)
 
 
+@pytest.mark.integration
 def test_a_shared_pool_runs_one_problem_after_another_as_a_single_process_does():
     # a fit stage's models share one pool: each worker must drop the problem it holds for the next one's
     half = np.array([0.05, 0.02, 0.02, 0.1])
@@ -231,6 +233,7 @@ def test_a_shared_pool_runs_one_problem_after_another_as_a_single_process_does()
             np.testing.assert_array_equal(a.x, b.x)
 
 
+@pytest.mark.integration
 def test_the_profile_sigmas_sides_run_in_worker_processes_as_in_this_one():
     t, th, om, _ = toy_data(seconds=8.0)
     prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)
@@ -250,6 +253,7 @@ def test_the_profile_sigmas_sides_run_in_worker_processes_as_in_this_one():
     np.testing.assert_array_equal(here[1], there[1])
 
 
+@pytest.mark.integration
 def test_ladder_rules_stop_hopeless_starts_and_merge_duplicates_alike_in_any_number_of_workers():
     t, th, om, _ = toy_data(seconds=8.0)
     prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=toy_simulate)

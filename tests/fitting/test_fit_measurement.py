@@ -22,7 +22,6 @@ from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 from pendtrack.fitting.result import plausibility_flags
 from pendtrack.models import compose, get_model
 
-FS = 120.0
 SECONDS = 30.0
 NOISE = 1e-3  # [rad]
 THETA0 = 2.5  # [rad], released from rest

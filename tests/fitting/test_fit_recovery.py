@@ -24,7 +24,8 @@ from pendtrack.fitting import fit_model
 from pendtrack.fitting.leastsq.local_fits import FINAL_ITERATIONS
 from pendtrack.models import get_model
 
-FS = 120.0
+pytestmark = pytest.mark.integration  # the whole fit (estimates, starts in worker processes, profile sigmas)
+
 SECONDS = 60.0
 NOISE = 3e-3  # [rad], the tracking noise of the issue
 THETA0 = 2.8  # released from rest near the top [rad]
