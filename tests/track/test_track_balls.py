@@ -12,6 +12,8 @@ from test_track_cli import invoke
 
 from pendtrack.artifacts import read_artifact
 
+pytestmark = pytest.mark.video  # renders of shiny and turning balls
+
 # a shiny blue ball (4 cm) on a string, normal lens, the axle above the frame; the shutter open
 # 1/120 s: at the bottom the ball moves 2 Omega0 sin(theta0 / 2) L ~ 1.2 m/s, a streak of ~10 mm,
 # a quarter of its diameter
@@ -24,7 +26,6 @@ def shiny(tmp_path_factory):
     return field_video(tmp_path_factory.mktemp("shiny") / "video.mp4", seconds=4.0, fps=60.0, **SHINY)
 
 
-@pytest.mark.video
 def test_the_highlight_saturates(shiny):
     import av
 
@@ -38,7 +39,6 @@ def test_the_highlight_saturates(shiny):
     assert np.median(ball[..., 0] - ball[..., 2]) > 60
 
 
-@pytest.mark.video
 @pytest.mark.integration
 def test_a_shiny_motion_blurred_ball_is_tracked_in_99_percent_of_frames(shiny, tmp_path):
     fv = shiny
@@ -60,7 +60,6 @@ CAPPED = dict(rig="string", marker_color="blue", marker_shape="ball", spot_radiu
               lens_fov_deg=70.0, camera_offset_m=(0.0, 0.13), theta0=0.5)
 
 
-@pytest.mark.video
 @pytest.mark.integration
 def test_a_ball_turning_with_the_swing_is_tracked_at_its_turning_points(tmp_path):
     from pendtrack.track.circle import fit_circle
@@ -82,7 +81,6 @@ def test_a_ball_turning_with_the_swing_is_tracked_at_its_turning_points(tmp_path
     assert np.hypot(got.xc - truth.xc, got.yc - truth.yc) < 2.0, (got, truth)
 
 
-@pytest.mark.video
 @pytest.mark.integration
 def test_a_hand_over_the_ball_with_a_normal_lens_is_never_tracked(tmp_path):
     # a skin-coloured hand covers the blue ball for the first second (painted over the render), then is gone
