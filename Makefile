@@ -7,7 +7,7 @@ SAMPLE ?= sample_videos/12na1.mp4
 DEMO_OUT ?= results/12na1
 PYTEST_ARGS ?=
 
-.PHONY: setup demo test test-slow test-all bench clean
+.PHONY: setup demo test test-unit test-slow test-all bench clean
 
 setup: $(STAMP)
 
@@ -26,6 +26,10 @@ demo: setup
 # The default suite (under 15 minutes on 2 cores); tests marked `slow` run in test-slow.
 test: setup
 	$(BIN)/python -m pytest -m "not slow" $(PYTEST_ARGS)
+
+# The unit loop (under 2 minutes on 2 cores): the core maths, without videos, stages, the CLI or subprocesses.
+test-unit: setup
+	$(BIN)/python -m pytest -m "not slow and not video and not integration" $(PYTEST_ARGS)
 
 test-slow: setup
 	$(BIN)/python -m pytest -m slow $(PYTEST_ARGS)

@@ -4,7 +4,7 @@ Usage::
 
     .venv/bin/python benchmarks/recovery_compare.py --out new.json [--compare old.json]
 
-Fits every record of ``tests/test_fit_recovery.py`` (this tree's records, seeds 0-5 of each
+Fits every record of ``tests/fitting/test_fit_recovery.py`` (this tree's records, seeds 0-5 of each
 model and of the memory-only fractional model, the tests' own options: few starts, no time
 budget, profile sigmas) with whatever ``pendtrack`` is importable, in one process, and writes
 each fit's Xi^2_min, values, standard errors and z-scores (the tests' definition) to
@@ -28,7 +28,8 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+TESTS = Path(__file__).resolve().parents[1] / "tests"
+sys.path[:0] = [str(TESTS / "fitting"), str(TESTS)]  # the recovery tests, and the helpers they import
 
 import test_fit_recovery as recovery  # noqa: E402
 

@@ -21,15 +21,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
+from factory import angle_file, swing
 
-from pendtrack.artifacts import Provenance, write_artifact
 from pendtrack.config import Config
-from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
-pytestmark = pytest.mark.slow  # four processes that each compile the kernels from nothing
+pytestmark = [pytest.mark.slow, pytest.mark.integration]  # four processes that each compile the kernels from nothing
 
 MODELS = ("classic", "fractional")
 RUNTIME_KEYS = ("runtime_s", "provenance")
@@ -43,12 +41,8 @@ SE_SHARE = 0.05  # values within this share of their standard error: the same me
 @pytest.fixture(scope="module")
 def kinematics(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d = tmp_path_factory.mktemp("determinism")
-    t = np.arange(int(30 * 120)) / 120.0
     truth = {"Omega0": 5.0, "C0": 0.01, "C3": 0.05, "p": 1.6, "Ca": 0.01}
-    sim = simulate(get_model("classic"), truth, t, theta0=2.0, omega0=0.0)
-    theta = sim.theta + np.random.default_rng(7).normal(0.0, 2e-3, t.size)
-    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), d / "angle.parquet", "angle",
-                   provenance=Provenance(stage="test"))
+    angle_file(d / "angle.parquet", *swing("classic", truth, seconds=30.0, theta0=2.0, noise=2e-3, seed=7))
     (d / "fit.toml").write_text(CONFIG)
     return kinematics_stage(d / "angle.parquet", out_dir=d, config=Config(), progress=False).path
 

@@ -39,6 +39,7 @@ def _init(value: str) -> None:
     os.environ["PENDTRACK_TEST_INIT"] = value
 
 
+@pytest.mark.integration
 def test_pool_workers_are_single_threaded_and_initialised():
     before = {v: os.environ.get(v) for v in THREAD_ENV_VARS}
     with process_pool(2, initializer=_init, initargs=("yes",)) as pool:

@@ -35,7 +35,7 @@ from pendtrack.errors import VideoError
 # (or without AVX-512, or with MALLOC_PERTURB_ set) the bitstream depends on the frames only (and
 # on the CPU's instruction set, as x264's SIMD levels differ in the last bits); mbtree keeps working
 # and the files are no larger for these static-camera scenes. Checked by
-# tests/test_render_stage.py::test_render_is_bit_identical_across_calls_and_processes.
+# tests/render/test_render_stage.py::test_render_is_bit_identical_across_calls_and_processes.
 X264_PARAMS = "bframes=0"
 
 # BT.601 limited range: rows Y, Cb, Cr; columns B, G, R (inputs 0..255), then the offset.

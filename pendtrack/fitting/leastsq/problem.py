@@ -461,7 +461,7 @@ class FitProblem:
         alone (their gradient, with a Jacobian off by a relative ``e``, vanishes within ~``e``
         standard errors of the minimum); 1 sub-step at 120 fps is within 5e-6 (relative, column
         norms) of central differences on 60-s records and 9e-5 for the added-mass-only model,
-        against 1e-5 and 1e-5 for the simulation's 3 sub-steps (tests/test_sensitivity.py).
+        against 1e-5 and 1e-5 for the simulation's 3 sub-steps (tests/fitting/test_sensitivity.py).
 
         The observed curves' derivatives (:meth:`simulate_sensitivities`) at the data samples,
         through the cost's chain rule (:func:`pendtrack.fitting.leastsq.cost.residual_vector`): for

@@ -1,0 +1,76 @@
+"""The CLI shell: help, version, one-line errors with exit code 2."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from pendtrack import __version__
+from pendtrack.cli import COMMANDS, cli
+
+pytestmark = pytest.mark.integration  # the CLI as a user runs it (in process and as the console script)
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_help_lists_every_stage():
+    res = invoke("--help")
+    assert res.exit_code == 0
+    for name in ("render", "track", "angle", "kinematics", "fit", "run", "undistort"):
+        assert name in res.output
+
+
+def test_version():
+    res = invoke("--version")
+    assert res.exit_code == 0 and __version__ in res.output
+
+
+def test_every_registered_command_has_help_with_common_options():
+    for name in COMMANDS:
+        res = invoke(name, "--help")
+        assert res.exit_code == 0, (name, res.output)
+        for opt in ("--config", "--out", "--verbose", "--force"):
+            assert opt in res.output, (name, opt)
+
+
+def test_unknown_command_is_one_line_error_exit_2():
+    res = invoke("frobnicate")
+    assert res.exit_code == 2
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "frobnicate" in lines[0]
+
+
+def test_unknown_option_is_one_line_error_exit_2():
+    res = invoke("fit", "--no-such-flag")
+    assert res.exit_code == 2
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "--no-such-flag" in lines[0]
+
+
+def test_bad_config_file_is_one_line_error_naming_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[lens]\nfov = 1\n")
+    res = invoke("kinematics", str(tmp_path / "angle.parquet"), "--config", str(bad), "--out", str(tmp_path))
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [f"error: {bad}: unknown key 'lens.fov'"]
+
+
+def test_console_script_entry_point_runs():
+    out = subprocess.run([sys.executable, "-m", "pendtrack", "--version"], capture_output=True, text=True)
+    assert out.returncode == 0 and __version__ in out.stdout
+
+
+def test_run_with_a_bad_config_value_fails_before_any_stage(tmp_path):
+    # a real video: without the load-time check, `run` would track it whole before the kinematics stage failed
+    video = Path(__file__).resolve().parents[2] / "sample_videos" / "12na1.mp4"
+    bad = tmp_path / "x.toml"
+    bad.write_text("[kinematics]\nsavgol_window_s = -1\n")
+    out = tmp_path / "out"
+    res = invoke("run", str(video), "--config", str(bad), "--out", str(out), "-q")
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [f"error: {bad}: 'kinematics.savgol_window_s' must be > 0, got -1"]
+    assert not out.exists() or not any(out.iterdir())  # no artifact, not even a partial one

@@ -1,0 +1,408 @@
+"""Instrument files with units (pendtrack.tables): each format physicists export, on small synthetic
+files that carry the format's exact header; the unit checks; real sample times with jitter."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+from pendtrack.artifacts import read_artifact
+from pendtrack.errors import ArtifactError, ConfigError
+from pendtrack.models import get_model, simulate
+from pendtrack.stages.kinematics import read_input
+from pendtrack.tables import TableSpec, parse_column_name, read_record
+from pendtrack.tables.trk import image_to_world
+from test_tables import _one_line_error, invoke
+
+RATE = 60.0
+SWING = {"Omega0": 5.0, "C1": 0.1, "C0": 0.05, "C2": 0.05}
+L, PX, PY = 0.65, 0.1, 0.4  # pendulum length and pivot [m], world axes (y up)
+T = np.arange(int(6.0 * RATE)) / RATE
+THETA = simulate(get_model("standard"), SWING, T, theta0=1.0, omega0=0.0).theta
+X, Y = PX + L * np.sin(THETA), PY - L * np.cos(THETA)
+# float round trips: repr() is exact; degrees and x, y convert back with float rounding only (1e-12 rad)
+ATOL = 1e-9
+
+
+def _rows(*cols: np.ndarray, sep: str = ",", fmt=repr) -> str:
+    return "".join(sep.join(fmt(float(v)) for v in row) + "\n" for row in zip(*cols))
+
+
+# --- names and units ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("label, role, scale, unit", [
+    ("t_s", "t", 1.0, "s"), ("time (s)", "t", 1.0, "s"), ("Time [ms]", "t", 1e-3, "ms"),
+    ("t_us", "t", 1e-6, "µs"), ("t (µs)", "t", 1e-6, "µs"), ("T [μs]", "t", 1e-6, "µs"),
+    ("t [min]", "t", 60.0, "min"),
+    ("theta1_rad", "theta", 1.0, "rad"), ("Angle (°)", "theta", math.pi / 180, "°"),
+    ("angle_deg", "theta", math.pi / 180, "deg"), ("theta [mrad]", "theta", 1e-3, "mrad"),
+    ("VideoAnalysis: Time (s)", "t", 1.0, "s"), ('"Time (s)"', "t", 1.0, "s"),
+    ("Run 1: Angle (°)", "theta", math.pi / 180, "°"),
+    ("Latest: Time (s)", "t", 1.0, "s"), ("angle 1", "theta", 1.0, ""), ("x1", "x", 1.0, ""),
+    ("VideoAnalysis: X (m)", "x", 1.0, "m"), ("x [cm]", "x", 0.01, "cm"), ("y_down [px]", "y", 1.0, "px"),
+    ("Angle (deg)", "theta", math.pi / 180, "deg"),
+])
+def test_header_spellings(label, role, scale, unit):
+    c = parse_column_name(label)
+    assert c is not None and c.role == role and c.scale == pytest.approx(scale, rel=1e-15) and c.unit == unit
+
+
+@pytest.mark.parametrize("label", ["Angular velocity (rad/s)", "VideoAnalysis: X Velocity (m/s)", "v_{x}", "θ_{r}",
+                                   "pixel_{x}", "step", "frame", "Run 1: Acceleration (m/s²)"])
+def test_other_instrument_columns_are_not_read(label):
+    assert parse_column_name(label) is None
+
+
+def test_units_that_do_not_fit_are_refused():
+    with pytest.raises(ConfigError, match="unknown unit 'm'"):
+        parse_column_name("theta [m]")
+    with pytest.raises(ConfigError, match="not a length"):
+        parse_column_name("x [deg]")
+
+
+# --- plain encoder logs and the unit checks -------------------------------------------------
+
+@pytest.mark.integration
+def test_encoder_log_in_degrees_is_an_error_then_reads_with_the_unit(tmp_path):
+    src = tmp_path / "encoder.csv"  # an encoder log `Time,Angle` in degrees
+    src.write_text("Time,Angle\n" + _rows(T, np.degrees(THETA)))
+    out = tmp_path / "o"
+    _one_line_error(invoke("kinematics", str(src), "--out", str(out), "-q"), str(src), "looks like degrees",
+                    "--columns t,theta[deg]")
+    assert not out.exists() or not any(out.iterdir())  # no artifact
+    res = invoke("kinematics", str(src), "--columns", "t,theta[deg]", "--out", str(out), "-q")
+    assert res.exit_code == 0, res.output
+    kin = read_artifact(out / "kinematics.parquet", "kinematics")
+    np.testing.assert_allclose(kin.data["t"], T, rtol=0, atol=1e-12)
+    assert kin.provenance.extra["input"]["columns"] == ["t", "theta[deg]"]
+
+
+def test_parquet_in_degrees_names_the_column_to_rename(tmp_path):
+    import pandas as pd
+
+    src = tmp_path / "angles.parquet"
+    pd.DataFrame({"t": T, "theta": np.degrees(THETA)}).to_parquet(src)
+    with pytest.raises(ArtifactError, match=r"looks like degrees: name the Parquet column 'theta \[deg\]'"):
+        read_record(src)
+    pd.DataFrame({"t": T, "theta [deg]": np.degrees(THETA)}).to_parquet(src)
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+
+
+def test_encoder_log_degrees_in_the_header(tmp_path):
+    src = tmp_path / "encoder.csv"
+    src.write_text("t_s,angle_deg\n" + _rows(T, np.degrees(THETA)))
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+
+
+def _encoder_us(jitter: float, seed: int = 4) -> tuple[np.ndarray, np.ndarray, CubicSpline]:
+    """Sample times of a 50 Hz encoder with real jitter (up to ``jitter`` of a step), theta there,
+    and the motion itself (a fine simulation, splined: exact to ~1e-11 rad at 1 ms)."""
+    fine = np.arange(0.0, 8.1, 1e-3)
+    motion = CubicSpline(fine, simulate(get_model("standard"), SWING, fine, theta0=1.0, omega0=0.0).theta)
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 8.0, 0.02) + rng.uniform(-jitter, jitter, 400) * 0.02
+    t[0] = 0.0
+    t = np.round(t * 1e6) / 1e6  # whole microseconds, as the encoder writes them
+    return t, motion(t), motion
+
+
+@pytest.mark.integration
+def test_headerless_us_degree_log_with_jitter(tmp_path):
+    t, theta, motion = _encoder_us(jitter=0.3)
+    src = tmp_path / "encoder.txt"  # headerless: t in µs, theta in degrees, real sampling jitter
+    src.write_text("".join(f"{int(round(a * 1e6)) + 2_000_000} {math.degrees(b)!r}\n" for a, b in zip(t, theta)))
+    msg = _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"), str(src),
+                          "looks like µs", "looks like degrees", "--columns t[us],theta[deg]")
+    assert "uneven" not in msg
+    rec = read_record(src, spec=TableSpec(columns=("t[us]", "theta[deg]")))
+    r = rec.info["resampled"]
+    assert r["irregular"] and np.ptp(np.diff(rec.t)) < 1e-9  # a uniform grid
+    # the mean spacing: the encoder's step, off by the last sample's jitter spread over 399 steps
+    assert r["step_s"] == pytest.approx(0.02, rel=0.3 / 399)
+    # the stated bound holds: the resampled theta is the motion at the grid times within it, and it is
+    # small (H <= 1.6 steps of 20 ms: 5/384 H^4 |theta''''| ~ 1e-5 rad, far below an encoder's resolution)
+    err = np.max(np.abs(rec.theta - motion(rec.t - 2.0)))
+    assert err <= r["error_bound_rad"] < 1e-4
+    assert rec.t.size >= 395 and rec.ok.all()
+    res = invoke("kinematics", str(src), "--columns", "t[us],theta[deg]", "--out", str(tmp_path / "o"), "-q")
+    assert res.exit_code == 0 and "Omega0 = 4.9" in res.output  # Omega0 5 with the damping's shift
+
+
+def test_time_in_ms_without_a_unit_is_an_error(tmp_path):
+    src = tmp_path / "log.txt"
+    src.write_text("time angle\n" + _rows(T * 1000.0, THETA, sep=" "))
+    with pytest.raises(ArtifactError, match=r"looks like ms: declare the unit with --columns t\[ms\],theta"):
+        read_record(src)
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t[ms]", "theta"))).t, T, atol=1e-12)
+    # a declared unit is taken as declared
+    src.write_text("time [ms],angle\n" + _rows(T * 1000.0, THETA))
+    np.testing.assert_allclose(read_record(src).theta, THETA, atol=0)
+
+
+def test_irregular_times_with_a_gap_and_close_samples():
+    t, theta, motion = _encoder_us(jitter=0.45, seed=5)
+    lost = np.arange(150, 170)  # 0.4 s lost
+    t, theta = np.delete(t, lost), np.delete(theta, lost)
+    import pendtrack.tables.grid as grid
+
+    ok = np.ones(t.size, bool)
+    new_theta, _, new_t, rec = grid.resample_irregular(t, theta, ok, {})
+    assert rec["irregular"] and np.all(np.diff(new_t) > 0)
+    steps = np.rint(np.diff(new_t) / rec["step_s"])
+    assert steps.max() >= 20 and set(np.unique(steps)) - {1} == {steps.max()}  # one gap, no grid point in it
+    assert np.max(np.abs(new_theta - motion(new_t))) <= rec["error_bound_rad"]
+
+
+# --- column names: indexed, t_s ---------------------------------------------------------------
+
+def test_indexed_names_t_s_theta1_rad(tmp_path):
+    src = tmp_path / "run.csv"
+    src.write_text("t_s, theta1_rad, omega1_rad_s\n" + _rows(T, THETA, T))
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=0)
+
+
+def test_two_indexed_angles_are_ambiguous(tmp_path):
+    src = tmp_path / "double.csv"
+    src.write_text("t,theta1,theta2\n" + _rows(T, THETA, 2 * THETA))
+    with pytest.raises(ArtifactError, match=r"two columns are theta .*pick one with --columns t,theta,_"):
+        read_record(src)
+
+
+# --- Vernier: Video Analysis, Logger Pro --------------------------------------------------------
+
+def test_vernier_video_analysis_csv(tmp_path):
+    src = tmp_path / "video_analysis.csv"
+    head = ('"VideoAnalysis: Time (s)","VideoAnalysis: X (m)","VideoAnalysis: Y (m)",'
+            '"VideoAnalysis: X Velocity (m/s)","VideoAnalysis: Y Velocity (m/s)"\n')
+    src.write_text(head + _rows(T, X, Y, np.gradient(X, T), np.gradient(Y, T)))
+    rec = read_input(src)  # the pivot from the circle fit
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    assert rec.info["pivot"]["x"] == pytest.approx(PX, abs=1e-9) and rec.info["pivot"]["y_axis"] == "up"
+
+
+def test_logger_pro_latest_run(tmp_path):
+    src = tmp_path / "logger_pro.csv"
+    src.write_text('"Latest: Time (s)","Latest: Angle (°)","Latest: Angular Velocity (rad/s)"\n'
+                   + _rows(T, np.degrees(THETA), T), encoding="cp1252")  # Logger Pro on Windows writes cp1252
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+
+
+@pytest.mark.integration
+def test_logger_pro_runs_side_by_side(tmp_path):
+    n2 = 200  # run 2 is shorter: its cells are empty below
+    src = tmp_path / "runs.csv"
+    head = '"Run 1: Time (s)","Run 1: Angle (°)","Run 2: Time (s)","Run 2: Angle (°)"\n'
+    body = "".join(f"{a!r},{math.degrees(b)!r}," + (f"{a!r},{math.degrees(-b)!r}" if k < n2 else ",") + "\n"
+                   for k, (a, b) in enumerate(zip(T.tolist(), THETA.tolist())))
+    src.write_text(head + body)
+    out = tmp_path / "o"
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(out), "-q"), str(src),
+                    "two columns are t", "--columns t[s],theta[deg],_,_")
+    run1 = read_record(src, spec=TableSpec(columns=("t[s]", "theta[deg]", "_", "_")))
+    np.testing.assert_allclose(run1.theta, THETA, rtol=0, atol=ATOL)
+    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", "theta[deg]")))
+    assert run2.t.size == n2
+    np.testing.assert_allclose(run2.theta, -THETA[:n2], rtol=0, atol=ATOL)
+
+
+def test_logger_pro_text_export(tmp_path):
+    src = tmp_path / "logger_pro.txt"  # Logger Pro's File > Export As > Text: names, short names, units
+    head = "Vernier Format 2\nswing.cmbl 11/25/2026 10:12:03 .\nLatest\nTime\tAngle\nt\tθ\ns\t°\n\n"
+    src.write_text(head + _rows(T, np.degrees(THETA), sep="\t"))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    assert rec.info["columns"] == ["t[s]", "theta[deg]"]
+
+
+# --- phyphox -----------------------------------------------------------------------------------
+
+def _phyphox(value: float, comma: bool) -> str:
+    text = f"{value:.9E}"  # phyphox writes 9 decimals, exponent
+    return text.replace(".", ",") if comma else text
+
+
+@pytest.mark.parametrize("sep, comma", [(",", False), ("\t", False), (";", True), ("\t", True)],
+                         ids=["comma", "tab", "semicolon_decimal_comma", "tab_decimal_comma"])
+def test_phyphox_csv(tmp_path, sep, comma):
+    src = tmp_path / "Angle.csv"
+    head = sep.join(['"Time (s)"', '"Angle (deg)"', '"Angular velocity (rad/s)"']) + "\n"
+    src.write_text(head + _rows(T, np.degrees(THETA), T, sep=sep, fmt=lambda v: _phyphox(v, comma)))
+    rec = read_record(src)
+    # 10 significant digits of degrees: 1e-9 relative of 60 deg ~ 1e-9 rad
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=5e-9)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=5e-9 * T.max())
+
+
+# --- Tracker: data export, project file ---------------------------------------------------------
+
+def test_tracker_data_export(tmp_path):
+    src = tmp_path / "mass_A.txt"  # File > Export > Data: the track name, then the table
+    src.write_text("mass A\nt\tx\ty\n" + _rows(T, X, Y, sep="\t"))
+    rec = read_record(src, spec=TableSpec(pivot=(PX, PY)))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
+def test_tracker_data_export_more_columns(tmp_path):
+    # the position angle θ_{r} and the angle θ about Tracker's origin (in degrees) are not the
+    # pendulum's angle: x, y are read; velocities are empty in the first and last rows
+    v = np.gradient(X, T)
+    cells = [repr(a) for a in v.tolist()]
+    cells[0] = cells[-1] = ""
+    src = tmp_path / "export.csv"
+    theta_r = np.degrees(np.arctan2(Y, X))
+    src.write_text("mass A\nt,x,y,r,θ_{r},v_{x},θ\n" + "".join(
+        f"{a!r},{b!r},{c!r},{math.hypot(b, c)!r},{d!r},{e},{d!r}\n"
+        for a, b, c, d, e in zip(T.tolist(), X.tolist(), Y.tolist(), theta_r.tolist(), cells)))
+    rec = read_input(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
+@pytest.mark.integration
+def test_tracker_protractor_export_in_degrees(tmp_path):
+    src = tmp_path / "protractor.txt"
+    src.write_text("protractor A\nt\tθ\n" + _rows(T, np.degrees(THETA), sep="\t"))
+    _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"), str(src),
+                    "--columns t,theta[deg]")
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[deg]"))).theta, THETA,
+                               rtol=0, atol=ATOL)
+
+
+FPS, START, STEP = 120.0, 3, 2  # the clip: every 2nd frame of a 120 fps video from frame 3 (60 Hz steps)
+CALIB = [(0, (320.0, 400.0, 10.0, 500.0, 500.0)), (START + STEP * 200, (330.0, 395.0, 10.0, 500.0, 500.0))]
+
+
+def _prop(name: str, kind: str, value: object) -> str:
+    return f'<property name="{name}" type="{kind}">{value}</property>'
+
+
+def _obj(name: str, cls: str, *props: str) -> str:
+    return (f'<property name="{name}" type="object">\n<object class="org.opensourcephysics.{cls}">\n'
+            + "\n".join(props) + "\n</object>\n</property>")
+
+
+def _framedata(cls: str, frames: dict[int, list[str]]) -> str:
+    return (f'<property name="framedata" type="array" class="[Lorg.opensourcephysics.{cls};">\n'
+            + "\n".join(_obj(f"[{n}]", cls, *p) for n, p in sorted(frames.items())) + "\n</property>")
+
+
+def _world_to_image(x: np.ndarray, y: np.ndarray, calib: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Tracker's toImage transform (ImageCoordSystem.updateTransforms), angle in degrees."""
+    xo, yo, a, xs, ys = calib
+    c, s = math.cos(math.radians(a)), math.sin(math.radians(a))
+    return xs * c * x - xs * s * y + xo, -ys * s * x - ys * c * y + yo
+
+
+def _point_mass(name: str, x: np.ndarray, y: np.ndarray, extra: dict[int, tuple[float, float]]) -> str:
+    frames = START + STEP * np.arange(x.size)
+    marks: dict[int, list[str]] = {}
+    for n, wx, wy in zip(frames, x, y):
+        calib = CALIB[1][1] if n >= CALIB[1][0] else CALIB[0][1]
+        ix, iy = _world_to_image(np.array(wx), np.array(wy), calib)
+        marks[int(n)] = [_prop("x", "double", repr(float(ix))), _prop("y", "double", repr(float(iy)))]
+    for n, (ix, iy) in extra.items():
+        marks[n] = [_prop("x", "double", repr(ix)), _prop("y", "double", repr(iy))]
+    return ('<property name="item" type="object">\n'
+            '<object class="org.opensourcephysics.cabrillo.tracker.PointMass">\n'
+            + _prop("mass", "double", 1.0) + "\n" + _prop("name", "string", name) + "\n"
+            + _framedata("cabrillo.tracker.PointMass$FrameData", marks) + "\n</object>\n</property>")
+
+
+def _trk(tracks: list[str]) -> str:
+    """A Tracker project in the structure Tracker 6 saves (TrackerPanel, VideoClip, coords, tracks)."""
+    dt = 1000.0 / FPS
+    coords = {n: [_prop("xorigin", "double", c[0]), _prop("yorigin", "double", c[1]), _prop("angle", "double", c[2]),
+                  _prop("xscale", "double", c[3]), _prop("yscale", "double", c[4])] for n, c in CALIB}
+    return "\n".join([
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        '<object class="org.opensourcephysics.cabrillo.tracker.TrackerPanel">',
+        _prop("semantic_version", "string", "6.1.5"), _prop("width", "double", 1280.0),
+        _obj("videoclip", "media.core.VideoClip",
+             _obj("video", "media.mov.MovieVideo", _prop("path", "string", "swing.mp4"),
+                  _prop("delta_t", "double", repr(dt))),
+             _prop("video_framecount", "int", 1000), _prop("startframe", "int", START),
+             _prop("stepsize", "int", STEP), _prop("stepcount", "int", T.size), _prop("starttime", "double", 0.0),
+             _prop("readout", "string", "step"), _prop("playallsteps", "boolean", "true")),
+        _obj("clipcontrol", "media.core.VideoClipControl", _prop("rate", "double", 1.0),
+             _prop("delta_t", "double", repr(dt)), _prop("frame", "int", START)),
+        _obj("coords", "media.core.ImageCoordSystem", _prop("fixedorigin", "boolean", "false"),
+             _prop("fixedangle", "boolean", "true"), _prop("fixedscale", "boolean", "true"),
+             _prop("locked", "boolean", "false"), _framedata("media.core.ImageCoordSystem$FrameData", coords)),
+        _prop("length_unit", "string", "m"), _prop("mass_unit", "string", "kg"),
+        '<property name="tracks" type="collection" class="java.util.ArrayList">',
+        _obj("item", "cabrillo.tracker.CoordAxes", _prop("name", "string", "axes")),
+        *tracks, "</property>", "</object>", ""])
+
+
+def test_image_to_world_inverts_trackers_transform():
+    for calib in (CALIB[0][1], (12.5, 700.0, -33.0, 812.0, 790.0)):
+        ix, iy = _world_to_image(X, Y, calib)
+        x, y = image_to_world(ix, iy, (calib[0], calib[1], math.radians(calib[2]), calib[3], calib[4]))
+        np.testing.assert_allclose(x, X, atol=1e-12)
+        np.testing.assert_allclose(y, Y, atol=1e-12)
+
+
+@pytest.mark.integration
+def test_tracker_project(tmp_path):
+    # marks off the clip's steps (frame 1 before the start, frame 4 between steps) are left out
+    src = tmp_path / "swing.trk"
+    src.write_text(_trk([_point_mass("mass A", X, Y, {1: (5.0, 5.0), 4: (7.0, 7.0)})]))
+    rec = read_record(src, spec=TableSpec(pivot=(PX, PY)))  # the pivot in world metres
+    # times from the clip: (frame - start) * delta_t = k / 60 s; positions through both calibrations
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    assert rec.kind == "tracker" and rec.info["tracker"]["calibration_key_frames"] == [0, CALIB[1][0]]
+    fitted = read_input(src)  # or the fitted pivot
+    np.testing.assert_allclose(fitted.theta, THETA, rtol=0, atol=ATOL)
+    res = invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q")
+    assert res.exit_code == 0 and "Omega0 = 4.9" in res.output, res.output
+
+
+@pytest.mark.integration
+def test_tracker_project_with_two_tracks(tmp_path):
+    src = tmp_path / "two.trk"
+    src.write_text(_trk([_point_mass("mass A", X, Y, {}), _point_mass("bob", X[::-1], Y[::-1], {})]))
+    _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"), str(src),
+                    "2 point-mass tracks ('mass A', 'bob')", "--track NAME")
+    rec = read_record(src, spec=TableSpec(track="mass A", pivot=(PX, PY)))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    with pytest.raises(ArtifactError, match="no point-mass track named 'mass B'"):
+        read_record(src, spec=TableSpec(track="mass B"))
+
+
+def test_not_a_tracker_project(tmp_path):
+    src = tmp_path / "other.trk"
+    src.write_text('<?xml version="1.0"?>\n<object class="org.opensourcephysics.tools.DataToolTab"></object>\n')
+    with pytest.raises(ArtifactError, match="not a Tracker project"):
+        read_record(src)
+    src.write_text("t theta\n")
+    with pytest.raises(ArtifactError, match="not a readable Tracker project"):
+        read_record(src)
+
+
+# --- legitimate radians stay radians --------------------------------------------------------------
+
+def test_real_records_read_without_unit_errors():
+    real = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "real-tyler-phy180"
+    if not real.is_dir():
+        real = Path("/work/shared/data/real-tyler-phy180")
+    if not real.is_dir():
+        pytest.skip("real data not found")
+    rec = read_record(real / "lab2_trial1_rawdata.txt")  # 66 deg swings in rad, phone times
+    assert rec.t.size == 500 and rec.warnings == () and np.max(np.abs(rec.theta)) < math.pi / 2
+
+
+def test_unit_checks_without_turning_points():
+    from pendtrack.tables.checks import theta_not_radians, time_not_seconds
+
+    t = np.arange(300) / 60.0
+    spin = 12.0 * t  # over the top, never turning back: 60 (degrees?) in 5 s, beyond two turns in rad
+    assert "without turning back twice" in (theta_not_radians(spin) or "")
+    assert theta_not_radians(np.clip(spin, 0, 4 * math.pi - 0.1)) is None  # under two turns: plausible in rad
+    # a record sampled 20 "s" apart cannot be a pendulum's in seconds: 20 ms, in ms
+    assert time_not_seconds(t * 1200.0, spin) == ("the time column has a sample step of 20, too long for seconds",
+                                                  "ms")
+    assert time_not_seconds(t, spin) is None

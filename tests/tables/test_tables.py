@@ -1,0 +1,423 @@
+"""One table reader for `kinematics`, `fit` and `discover` (pendtrack.tables): forms, refusals, warnings, jitter."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from factory import swing
+
+from pendtrack.artifacts import Provenance, read_artifact, read_metadata, write_artifact
+from pendtrack.cli import cli
+from pendtrack.config import Config
+from pendtrack.errors import ArtifactError, ConfigError
+from pendtrack.models import get_model, simulate
+from pendtrack.stages.kinematics import read_input
+from pendtrack.tables import TableSpec, parse_column_name, parse_columns, read_record, theta_warnings, uniform_grid
+
+ROOT = Path(__file__).resolve().parents[2]
+REAL = ROOT.parent / "shared" / "data" / "real-tyler-phy180" / "lab1_data.txt"
+if not REAL.is_file():  # the work tree may sit elsewhere; the shared data do not move
+    REAL = Path("/work/shared/data/real-tyler-phy180/lab1_data.txt")
+
+RATE = 60.0
+L, PX, PY = 0.65, 0.3, 1.2  # pendulum length and pivot of the x, y forms [m], y up
+# Damping large enough that the standard fit determines each of its three terms on 8 s at 1 mrad
+# noise (weaker ones, e.g. C2 = 0.002, are honestly flagged "not determined" and `fit` exits 1).
+SWING = {"Omega0": 5.0, "C1": 0.1, "C0": 0.05, "C2": 0.05}
+
+
+def _swing(seconds: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
+    return swing("standard", SWING, seconds=seconds, fps=RATE, theta0=1.0, noise=1e-3)
+
+
+def _lines(*cols: np.ndarray, sep: str = " ") -> str:
+    return "\n".join(sep.join(repr(float(v)) for v in row) for row in zip(*cols)) + "\n"
+
+
+T, THETA = _swing()
+X, Y = PX + L * np.sin(THETA), PY - L * np.cos(THETA)
+
+
+def _write(folder: Path, form: str) -> tuple[Path, tuple[str, ...]]:
+    """One accepted form of the same record; returns the file and the table flags it needs."""
+    if form == "plain":  # headerless t, theta: as before
+        p = folder / "plain.txt"
+        p.write_text(_lines(T, THETA))
+        return p, ()
+    if form == "three_columns":  # headerless with an ignored third column (the lab1 file's shape)
+        p = folder / "three.txt"
+        p.write_text(_lines(T, THETA, np.zeros_like(T)))
+        return p, ("--columns", "t,theta,_")
+    if form == "degrees_header":
+        p = folder / "deg.csv"
+        p.write_text("time [s],angle [deg],note\n" + _lines(T, np.degrees(THETA), T, sep=","))
+        return p, ()
+    if form == "ms_theta_symbol":
+        p = folder / "ms.txt"
+        p.write_text("# exported\nt (ms)   θ [rad]\n" + _lines(T * 1000.0, THETA))
+        return p, ()
+    if form == "xy_pivot":
+        p = folder / "xy.csv"
+        p.write_text("t,x [m],y [m]\n" + _lines(T, X, Y, sep=","))
+        return p, ("--pivot", str(PX), str(PY))
+    if form == "xy_fitted":
+        p = folder / "xyfit.csv"
+        p.write_text("t;x;y\n" + _lines(T, X, Y, sep=";"))
+        return p, ()
+    if form == "xy_down_columns":  # image-like axes, y down, headerless: named by --columns
+        p = folder / "xydown.txt"
+        p.write_text(_lines(T, 100.0 * X, -100.0 * Y))
+        return p, ("--columns", "t,x,y_down")
+    if form == "parquet":
+        p = folder / "plain.parquet"
+        pd.DataFrame({"t": T, "theta": THETA}).to_parquet(p)
+        return p, ()
+    if form == "angle_artifact":
+        p = folder / "angle.parquet"
+        write_artifact(pd.DataFrame({"t": T, "theta": THETA, "ok": np.ones(T.size, bool)}), p, "angle",
+                       provenance=Provenance(stage="test"))
+        return p, ()
+    raise AssertionError(form)
+
+
+FORMS = ("plain", "three_columns", "degrees_header", "ms_theta_symbol", "xy_pivot", "xy_fitted", "xy_down_columns",
+         "parquet", "angle_artifact")
+
+
+def _spec(flags: tuple[str, ...]) -> TableSpec | None:
+    if not flags:
+        return None
+    if flags[0] == "--columns":
+        return TableSpec(columns=parse_columns(flags[1]))
+    return TableSpec(pivot=(float(flags[1]), float(flags[2])))
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(cli, list(args))
+
+
+@pytest.fixture(scope="module")
+def fast_fit(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    cfg = tmp_path_factory.mktemp("cfg") / "fast.toml"
+    cfg.write_text("[fit]\nn_starts = 1\nworkers = 1\nprofile = false\n")
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory, fast_fit: Path) -> dict[str, pd.DataFrame]:
+    """kinematics.parquet and fit.parquet of the plain table: what every other form must give."""
+    d = tmp_path_factory.mktemp("reference")
+    src, _ = _write(d, "plain")
+    assert invoke("kinematics", str(src), "--out", str(d), "-q").exit_code == 0
+    res = invoke("fit", str(src), "--model", "standard", "--config", str(fast_fit), "--out", str(d), "-q")
+    assert res.exit_code == 0, res.output
+    return {"kinematics": read_artifact(d / "kinematics.parquet", "kinematics").data,
+            "fit": read_artifact(d / "fit.parquet", "fit").data}
+
+
+# --- one reader, every form --------------------------------------------------------------
+
+@pytest.mark.parametrize("form", FORMS)
+def test_every_form_reads_the_same_t_theta(tmp_path, form):
+    src, flags = _write(tmp_path, form)
+    rec = read_input(src, table=_spec(flags))
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=1e-12)  # repr() round-trips; ms -> s is exact to 1e-15
+    # 1e-9 rad: degrees and x, y (with a fitted pivot, exact data) convert back with float rounding only
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
+    assert rec.ok.all() and rec.info["resampled"] is None and rec.warnings == ()
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("form", FORMS)
+def test_kinematics_fit_and_discover_agree_on_every_form(tmp_path, form, reference, fast_fit, monkeypatch):
+    src, flags = _write(tmp_path, form)
+    res = invoke("kinematics", str(src), *flags, "--out", str(tmp_path / "k"), "-q")
+    assert res.exit_code == 0, res.output
+    kin = read_artifact(tmp_path / "k" / "kinematics.parquet", "kinematics").data
+    ref = reference["kinematics"]
+    np.testing.assert_allclose(kin["t"], ref["t"], rtol=0, atol=1e-12)
+    # the same theta in, the same Savitzky-Golay out (float rounding of the conversions only)
+    np.testing.assert_allclose(kin["theta"], ref["theta"], rtol=0, atol=1e-8)
+
+    res = invoke("fit", str(src), *flags, "--model", "standard", "--config", str(fast_fit), "--out",
+                 str(tmp_path / "f"), "-q")
+    assert res.exit_code == 0, res.output
+    fit = read_artifact(tmp_path / "f" / "fit.parquet", "fit").data
+    np.testing.assert_allclose(fit["t"], reference["fit"]["t"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fit["theta"], reference["fit"]["theta"], rtol=0, atol=1e-8)
+
+    # discover: what the stage hands to the search is the same record (the search itself is
+    # tested in test_discover_stage.py; here it is stopped once it has the series)
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def capture(series, **_):
+        seen["series"] = series
+        raise Stop
+
+    import pendtrack.discovery.loop as search
+
+    monkeypatch.setattr(search, "discover", capture)
+    from pendtrack.stages.discover import discover_stage
+
+    with pytest.raises(Stop):
+        discover_stage(src, out_dir=tmp_path / "d", config=Config(), table=_spec(flags), progress=False)
+    np.testing.assert_allclose(seen["series"].t, T, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(seen["series"].theta, THETA, rtol=0, atol=1e-9)
+
+
+@pytest.mark.integration
+def test_fit_of_a_table_equals_fit_of_its_kinematics_file(tmp_path, reference, fast_fit):
+    src, _ = _write(tmp_path, "plain")
+    assert invoke("kinematics", str(src), "--out", str(tmp_path), "-q").exit_code == 0
+    res = invoke("fit", str(tmp_path / "kinematics.parquet"), "--model", "standard", "--config", str(fast_fit),
+                 "--out", str(tmp_path / "f"), "-q")
+    assert res.exit_code == 0, res.output
+    fit = read_artifact(tmp_path / "f" / "fit.parquet", "fit").data
+    # same data, same Savitzky-Golay observation, same seed: the same fit (solver rounding only)
+    np.testing.assert_allclose(fit["theta_model"], reference["fit"]["theta_model"], rtol=0, atol=1e-9)
+    prov = json.loads((tmp_path / "f" / "fit.json").read_text())["provenance"]
+    assert "input" not in prov["config"] and "table" not in prov["config"]  # a kinematics file: as before
+
+
+@pytest.mark.integration
+def test_table_flags_make_outputs_stale(tmp_path):
+    src, _ = _write(tmp_path, "xy_fitted")
+    out = tmp_path / "k"
+    assert invoke("kinematics", str(src), "--out", str(out), "-q").exit_code == 0
+    again = invoke("kinematics", str(src), "--out", str(out), "-q")
+    assert "up to date" in again.output
+    moved = invoke("kinematics", str(src), "--pivot", str(PX + 0.01), str(PY), "--out", str(out), "-q")
+    assert moved.exit_code == 0 and "up to date" not in moved.output
+    extra = read_artifact(out / "kinematics.parquet", "kinematics").provenance.extra
+    assert extra["input"]["pivot"]["source"] == "--pivot"
+
+
+# --- column names -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("label, role, scale", [
+    ("t", "t", 1.0), ("Time [s]", "t", 1.0), ("time_ms", "t", 1e-3), ("t (ms)", "t", 1e-3),
+    ("theta", "theta", 1.0), ("θ", "theta", 1.0), ("Angle (deg)", "theta", math.pi / 180),
+    ("theta_deg", "theta", math.pi / 180), ("theta [rad]", "theta", 1.0), ("angle°", "theta", math.pi / 180),
+    ("x [m]", "x", 1.0), ("y_down", "y", 1.0), ("_", "_", 1.0),
+])
+def test_column_names_and_units(label, role, scale):
+    c = parse_column_name(label)
+    assert c is not None and c.role == role and c.scale == pytest.approx(scale)
+
+
+def test_unknown_names_and_units():
+    assert parse_column_name("residual") is None
+    with pytest.raises(ConfigError, match="unknown unit 'grad'"):
+        parse_column_name("theta [grad]")
+    with pytest.raises(ConfigError, match="unknown column name 'foo'"):
+        parse_columns("t,foo")
+    with pytest.raises(ConfigError, match="missing column 'theta'"):
+        parse_columns("t,_,_")
+    with pytest.raises(ConfigError, match="two columns are theta"):
+        parse_columns("t,theta,angle")
+
+
+# --- refusals: one line, exit 2, no artifact ----------------------------------------------
+
+def _one_line_error(res, *fragments: str) -> str:
+    assert res.exit_code == 2, res.output
+    lines = [line for line in res.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
+    for f in fragments:
+        assert f in lines[0], lines[0]
+    return lines[0]
+
+
+COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
+@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis"])
+def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
+    src = tmp_path / "in.txt"
+    flags: tuple[str, ...] = ()
+    if case == "three_columns":
+        src.write_text(_lines(T, THETA, T))
+        fragments = (str(src), "3 columns and no header", "add --columns t,theta,_")
+    elif case == "unknown_header":
+        src.write_text("a b\n" + _lines(T, THETA))
+        fragments = (str(src), "missing column 't'", "--columns t,theta")
+    elif case == "count":
+        src.write_text(_lines(T, THETA, T))
+        flags = ("--columns", "t,theta")
+        fragments = (str(src), "--columns names 2 columns, the table has 3")
+    elif case == "repeated":  # a repeated time: the only times refused are unusable ones
+        t = T.copy()
+        t[100] = t[99]
+        src.write_text(_lines(t, THETA))
+        fragments = (str(src), "a repeated time, t[100]")
+    else:  # y down, read as y up: the bob would be above its pivot
+        src.write_text("t x y\n" + _lines(T, X, -Y))
+        fragments = (str(src), "above the pivot", "y_down")
+    out = tmp_path / "out"
+    _one_line_error(invoke(*command[:1], str(src), *command[1:], *flags, "--out", str(out), "-q"), *fragments)
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.integration
+def test_bad_columns_flag_is_a_one_line_usage_error(tmp_path):
+    src, _ = _write(tmp_path, "plain")
+    _one_line_error(invoke("kinematics", str(src), "--columns", "t,omega", "--out", str(tmp_path / "o")),
+                    "--columns", "unknown column name 'omega'")
+
+
+@pytest.mark.integration
+def test_kinematics_artifact_is_refused_by_kinematics(tmp_path, reference):
+    p = tmp_path / "kinematics.parquet"
+    write_artifact(reference["kinematics"], p, "kinematics", provenance=Provenance(stage="kinematics"))
+    _one_line_error(invoke("kinematics", str(p), "--out", str(tmp_path / "o")), "already differentiated")
+
+
+@pytest.mark.integration
+def test_xy_path_too_short_to_fit_its_pivot(tmp_path):
+    src = tmp_path / "xy.txt"
+    tiny = 1e-3 * THETA  # a 0.03 deg swing
+    src.write_text("t x y\n" + _lines(T, L * np.sin(tiny), -L * np.cos(tiny)))
+    _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o")), "give --pivot X Y")
+
+
+# --- warnings -----------------------------------------------------------------------------
+
+def test_degrees_without_a_unit_are_an_error_naming_the_fix(tmp_path):
+    src = tmp_path / "deg.txt"
+    src.write_text(_lines(T, np.degrees(THETA)))
+    with pytest.raises(ArtifactError, match=r"looks like degrees: declare the unit with --columns t,theta\[deg\]"):
+        read_record(src)
+    # declared, it reads as the radians it is
+    rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-12)
+    # and a rotating pendulum (a swing beyond a full turn is possible) declares rad
+    turns = 4.0 * THETA  # swings of up to 8 rad
+    src.write_text(_lines(T, turns))
+    with pytest.raises(ArtifactError, match="not radians"):
+        read_record(src)
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[rad]"))).theta, turns, atol=0)
+
+
+def test_position_given_as_theta_warns(tmp_path):
+    src = tmp_path / "x.txt"
+    src.write_text(_lines(T, X + 0.5))  # x [m] of a pivot 0.8 m from the origin, read as theta
+    rec = read_record(src)
+    assert len(rec.warnings) == 1 and "looks like a position" in rec.warnings[0]
+
+
+def test_plausible_angles_do_not_warn():
+    assert theta_warnings(THETA) == []
+    # a pendulum launched over the top twice, then swinging about 4 pi: turns are not degrees
+    t = np.arange(6000) / 120
+    over = np.where(t < 5, 2.6 * t, 13.0 + 0.8 * np.exp(-t / 30) * np.sin(5 * (t - 5)))
+    assert theta_warnings(over) == []
+
+
+@pytest.mark.integration
+def test_cli_prints_the_warning_and_records_it(tmp_path):
+    src = tmp_path / "x.txt"
+    src.write_text(_lines(T, X + 0.5))
+    out = tmp_path / "o"
+    env_path = str(ROOT)
+    proc = subprocess.run([sys.executable, "-m", "pendtrack", "kinematics", str(src), "--out", str(out), "-q"],
+                          capture_output=True, text=True, env={"PYTHONPATH": env_path, "PATH": "/usr/bin:/bin"})
+    assert proc.returncode == 0, proc.stderr
+    assert "looks like a position" in proc.stderr and str(src) in proc.stderr
+    extra = (read_metadata(out / "kinematics.parquet") or {})["extra"]
+    assert any("looks like a position" in w for w in extra["input"]["warnings"])
+
+
+# --- time stamps --------------------------------------------------------------------------
+
+def _jittered(seconds: float = 8.0, jitter: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Phone-like times: true instants off the 60 Hz grid by up to ``jitter`` step; theta at those instants."""
+    t_grid = np.arange(int(seconds * RATE)) / RATE
+    rng = np.random.default_rng(2)
+    t = t_grid + rng.uniform(-jitter, jitter, t_grid.size) / RATE
+    t[0] = 0.0  # the motion starts at the first sample (simulate starts there)
+    sim = simulate(get_model("standard"), SWING, t, theta0=1.0, omega0=0.0)
+    return t, sim.theta
+
+
+def test_slightly_uneven_times_are_resampled_by_a_cubic_spline(tmp_path):
+    t, theta = _jittered()
+    src = tmp_path / "phone.txt"
+    src.write_text(_lines(t, theta))
+    rec = read_record(src)
+    r = rec.info["resampled"]
+    # jitter of up to 0.1 step about the true grid; the fitted grid's origin and step move it by a hair
+    assert r is not None and "cubic" in r["method"] and 0.05 < r["max_offset_steps"] <= 0.11
+    assert np.ptp(np.diff(rec.t)) < 1e-9 * r["step_s"] + 1e-12  # a uniform grid
+    assert r["step_s"] == pytest.approx(1 / RATE, rel=1e-3)
+    # the resampled values are the motion at the grid times (the grid may start a hair off 0):
+    # the model on a fine grid from 0, splined to the grid times, is the truth there
+    from scipy.interpolate import CubicSpline
+
+    fine = np.arange(0, 8.1, 1e-3)
+    ref = simulate(get_model("standard"), SWING, fine, theta0=1.0, omega0=0.0).theta
+    truth = CubicSpline(fine, ref)(rec.t)
+    # 1e-6 rad: the cubic spline's error on a 1 rad, 5 rad/s swing at 60 Hz (order h^4) measured 2.7e-7;
+    # linear interpolation of the same times is off by ~1e-3 (order h^2), far above tracking noise
+    assert np.max(np.abs(rec.theta - truth)) < 1e-6
+
+
+@pytest.mark.integration
+def test_kinematics_then_fit_on_phone_timestamps(tmp_path, fast_fit):
+    # before: kinematics accepted these times and `fit` refused them ("not on a uniform grid")
+    t, theta = _jittered(seconds=8.0, jitter=0.2)
+    angle = tmp_path / "angle.parquet"
+    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), angle, "angle",
+                   provenance=Provenance(stage="test"))
+    assert invoke("kinematics", str(angle), "--out", str(tmp_path), "-q").exit_code == 0
+    extra = read_artifact(tmp_path / "kinematics.parquet", "kinematics").provenance.extra
+    assert extra["input"]["resampled"]["max_offset_steps"] > 0.1
+    res = invoke("fit", str(tmp_path / "kinematics.parquet"), "--model", "standard", "--config", str(fast_fit),
+                 "--out", str(tmp_path / "f"), "-q")
+    assert res.exit_code == 0, res.output
+    # and a kinematics file written with jittered times (an older pendtrack's) is resampled by `fit` itself
+    kin = read_artifact(tmp_path / "kinematics.parquet", "kinematics")
+    old = kin.data.copy()
+    old["t"] = t
+    write_artifact(old, tmp_path / "old" / "kinematics.parquet", "kinematics", provenance=kin.provenance)
+    res = invoke("fit", str(tmp_path / "old" / "kinematics.parquet"), "--model", "standard", "--config",
+                 str(fast_fit), "--out", str(tmp_path / "f2"), "-q")
+    assert res.exit_code == 0, res.output
+    prov = json.loads((tmp_path / "f2" / "fit.json").read_text())["provenance"]
+    assert prov["config"]["input"]["resampled"]["method"].startswith("cubic")
+
+
+def test_gaps_stay_gaps():
+    t = np.arange(600) / RATE
+    t = np.delete(t, np.arange(200, 230))  # half a second missing
+    t[::7] += 0.1 / RATE  # and jitter
+    grid = uniform_grid(t)
+    assert grid is not None and np.diff(grid.index).max() == 31 and grid.max_offset < 0.11
+    assert uniform_grid(np.arange(600) / RATE) is None
+
+
+@pytest.mark.integration
+def test_lab1_needs_columns_and_then_reads_20_hz(tmp_path):
+    if not REAL.is_file():
+        pytest.skip(f"real data not found at {REAL}")
+    with pytest.raises(ArtifactError, match="add --columns t,theta,_"):
+        read_input(REAL)
+    rec = read_input(REAL, table=TableSpec(columns=("t", "theta", "_")))
+    assert rec.t.size == 2330 and 1 / np.median(np.diff(rec.t)) == pytest.approx(20.0, rel=0.01)
+    # its phone timestamps are off a uniform grid by ~0.5 % of a step: resampled, not refused
+    assert rec.info["resampled"] is not None and rec.info["resampled"]["max_offset_steps"] < 0.01
+    assert rec.warnings == ()
+    res = invoke("kinematics", str(REAL), "--columns", "t,theta,_", "--out", str(tmp_path), "-q")
+    assert res.exit_code == 0 and "Omega0 =" in res.output
