@@ -16,6 +16,8 @@ from test_track_cli import invoke
 from pendtrack.artifacts import read_artifact
 from pendtrack.track.camera import CameraMotion, CameraMotionMeter
 
+pytestmark = pytest.mark.video  # rendered hand-held videos tracked
+
 # a dark ball on a string, a normal lens, the axle above the frame, a short swing (arc ~23 deg)
 SHORT_STRING = dict(rig="string", marker_color="dark", marker_shape="ball", spot_radius_m=0.015,
                     lens_projection="none", lens_fov_deg=70.0, camera_offset_m=(0.0, 0.22), theta0=0.2)

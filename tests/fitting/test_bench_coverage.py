@@ -18,11 +18,13 @@ import pytest
 from scipy.linalg import toeplitz
 from scipy.signal import savgol_filter
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
 import bench_coverage as bench  # noqa: E402
 
 from pendtrack.fitting.uncertainty import hac_covariance  # noqa: E402
+
+pytestmark = pytest.mark.integration  # the coverage benchmark's records through whole fits
 
 
 def test_truths_are_seeded_and_drawn_around_the_paper_values():

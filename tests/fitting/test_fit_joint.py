@@ -24,6 +24,8 @@ from pendtrack.fitting.joint import default_scopes, resolve_scopes, sharing_from
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
+pytestmark = pytest.mark.integration  # joint fits of several runs, through the fit stage, the CLI and the door
+
 DRAG = {"C1": 0.02, "C0": 0.05, "C2": 0.002}
 OMEGA0 = {"03": 5.0, "06": 4.8}  # rad/s per tile
 RUNS = {"03na1": 2.8, "03na2": 1.4, "06na1": 2.3, "06na2": 1.0}  # run -> release angle [rad]
