@@ -35,20 +35,16 @@ def track_stage(video: str | Path, *, out_dir: str | Path, config: Config, force
 
     Parameters
     ----------
-    video : path
-        Input video.
-    out_dir : path
-        Output folder (created).
+    video, out_dir : path
+        The video read, and the folder written (created).
     config : Config
         Uses ``[lens]``, ``[video]`` and ``[track]``. Only the frames from ``video.start``
         to ``video.end`` are read; their rows keep the video's frame indices and times (0
         at its first frame), and frames outside that range have no row. Frames before the
         marker's acquisition (:func:`pendtrack.track.tracker.track_frames`) are rows with
         ``ok = False``.
-    force : bool
-        Recompute even if the output is up to date.
-    progress : bool
-        Progress bar on stderr.
+    force, progress : bool
+        Recompute even if the output is up to date; a progress bar on stderr.
 
     Returns
     -------
