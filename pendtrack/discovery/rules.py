@@ -86,19 +86,28 @@ def passes_heldout(gain: float, z: float, heldout_z_min: float, *, min_gain: flo
     return bool(gain > 0 and z > heldout_z_min and gain >= min_gain * heldout_rms)
 
 
-def own_flags(pair: FitPair, current: FitPair, terms: Sequence[str]) -> dict[str, str]:
+def own_flags(pair: FitPair, current: FitPair, terms: Sequence[str], *, kind: str = "effect") -> dict[str, str]:
     """Flags of the candidate's whole-record fit that its terms brought.
 
-    A flag on one of the new terms' parameters, or one the current model's fit does not carry
-    (memory at ``beta`` = 1 flags ``Omega0``: the term is an added mass and Omega0 trades off
-    against G2). A flag the current fit already carries (a baseline parameter the record does
-    not determine) is not the new term's.
+    An effect: a flag on one of the new terms' parameters, or one the current model's fit does not
+    carry (memory at ``beta`` = 1 flags ``Omega0``: the term is an added mass and Omega0 trades off
+    against G2). A flag the current fit already carries (a baseline parameter the record does not
+    determine) is not the new term's.
+
+    A measurement term (theta's zero offset, an angle-scale error): a flag on its own parameters
+    only. It does not enter the dynamics, so it can leave a physical parameter undetermined only by
+    trading off with it -- and a trade-off leaves its own parameter undetermined too. A physical
+    parameter that the corrected angle no longer determines (on lab1, the quadratic drag beside
+    memory, once the 10-mrad offset no longer has to be absorbed by it) is the physics' flag, judged
+    with the effects.
     """
     from pendtrack.models import CATALOGUE
 
     if pair.full is None:
         return {}
     mine = {p for t in terms if t in CATALOGUE for p in CATALOGUE[t].params}
+    if kind == "measurement":
+        return {k: v for k, v in pair.full.flags.items() if k in mine}
     before = current.full.flags if current.full is not None else {}
     return {k: v for k, v in pair.full.flags.items() if k in mine or k not in before}
 
@@ -144,7 +153,7 @@ def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, s
         samples = (data.theta[held], current.prediction[held], pair.prediction[held])
     dbic = pair.full.bic - current.full.bic if pair.full is not None else math.nan
     rms_change = current.full.rms - pair.full.rms if pair.full is not None else math.nan
-    flags = own_flags(pair, current, names)
+    flags = own_flags(pair, current, names, kind=kind)
     passes_h = passes_heldout(gain, z, heldout_z_min, min_gain=min_gain, heldout_rms=rms_ref)
     lowers = bool(pair.full is None or rms_change > 0)
     cand = Candidate(effect=effect, step=step, signature_score=score, train=pair.train, full=pair.full,
