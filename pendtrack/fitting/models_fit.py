@@ -310,10 +310,20 @@ def _model_facts(r: FitResult) -> dict[str, Any]:
 
 def _curves(results: Mapping[str, FitResult], model_objs: Mapping[str, Any], t: np.ndarray,
             theta: np.ndarray) -> dict[str, np.ndarray]:
-    """fit.parquet's columns: every model's simulated curves (from its fitted initial state), stacked."""
+    """fit.parquet's columns: every model's simulated curves (from its fitted initial state), stacked.
+
+    A model whose fitted curve cannot be integrated over the record (a fit that did not converge,
+    e.g. an undamped model driven into a runaway) gets NaN curves: its fit is already flagged, and
+    the other models' curves and files are still written.
+    """
     cols: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "theta", "theta_model", "omega_model", "residual", "model")}
     for name, res in results.items():
-        th_m, om_m = predict(res, model_objs[name], t)
+        try:
+            th_m, om_m = predict(res, model_objs[name], t)
+        except FloatingPointError:
+            if res.converged:
+                raise
+            th_m = om_m = np.full(t.size, np.nan)
         for key, value in (("t", t), ("theta", theta), ("theta_model", th_m), ("omega_model", om_m),
                            ("residual", theta - th_m), ("model", np.full(t.size, name, dtype=object))):
             cols[key].append(np.asarray(value))

@@ -129,7 +129,10 @@ def test_unknown_model_is_one_line_error(kin_file, tmp_path):
 def test_fit_a_composed_model_by_name(kin_file, tmp_path):
     """`--model baseline+term` (any term order) fits the composed model under its catalogue-order name."""
     out = tmp_path / "composed"
-    res = invoke("fit", str(kin_file), "--model", "standard+memory", "--starts", "1", "--workers", "1", "-q",
+    # 3 starts, not 1: on a memory-free swing the memory parameters lie in a flat valley, and a
+    # single local search can stop in a side minimum (xi2 1.6x the best) whose place turns on the
+    # last bits of the data (two code generations of the same render)
+    res = invoke("fit", str(kin_file), "--model", "standard+memory", "--starts", "3", "--workers", "1", "-q",
                  "--out", str(out))
     # exit 1 is allowed: G2 of a memory-free swing may come out "not determined" (flagged)
     assert res.exit_code in (0, 1), res.output
@@ -137,6 +140,8 @@ def test_fit_a_composed_model_by_name(kin_file, tmp_path):
     rec = read_json_artifact(out / "fit_standard+memory.json", required=FIT_JSON_KEYS)
     assert rec["model"] == "standard+memory"
     assert set(rec["params"]) == set(STANDARD) | {"G2", "beta", "p_f"}
+    # 5e-4: Omega0 moves along the undetermined memory parameters' valley by up to ~1.5e-4 (3 starts,
+    # host and generic code), ~4x its own standard error of 3.6e-5
     assert abs(rec["params"]["Omega0"]["value"] / 5.0 - 1) < 5e-4
 
 
