@@ -24,9 +24,10 @@ from pendtrack.lens.fisheye import (Fisheye, fisheye_from_config, local_scale, r
                                     undistort_blob_centres)
 from pendtrack.track.camera import MOVE_PX, CameraMotion, CameraMotionMeter
 from pendtrack.track.colour import MarkerColour, parse_marker_colour
+from pendtrack.track.params import TrackParams
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
 from pendtrack.track.swing import swing_of_track
-from pendtrack.track.tracker import TrackParams, TrackResult, track_frames
+from pendtrack.track.tracker import TrackResult, track_frames
 from pendtrack.video.reader import VideoInfo, check_time_range
 
 log = logging.getLogger(__name__)

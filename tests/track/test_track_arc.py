@@ -10,7 +10,7 @@ from factory import field_video
 from pendtrack.artifacts import read_artifact
 from pendtrack.config import Config
 from pendtrack.stages.track import track_stage
-from pendtrack.track.tracker import path_shape
+from pendtrack.track.acquisition import path_shape
 
 DIAGONAL = float(np.hypot(640, 360))
 T = np.linspace(0.0, 0.5, 11)  # the acquisition window's searches (0.05 s apart)

@@ -7,8 +7,9 @@ from pendtrack.errors import TrackingError
 from pendtrack.track.colour import MarkerColour, parse_marker_colour, rgb_to_ycbcr
 from pendtrack.track.detect import find_marker, level_step, marker_in_roi, median_of, percentile_of
 from pendtrack.track.match import match_template, quadratic_peak, weighted_centroid
+from pendtrack.track.params import TrackParams
 from pendtrack.track.sampler import CorrectedSampler, RawSampler, WarpedRawSampler
-from pendtrack.track.tracker import TrackParams, track_frames
+from pendtrack.track.tracker import track_frames
 from pendtrack.lens.fisheye import Fisheye
 from pendtrack.video.reader import YuvFrame
 from pendtrack.video.writer import bgr_to_i420
@@ -140,7 +141,7 @@ def test_fill_holes_box_is_that_part_of_the_whole_result(radius):
 
 
 def test_filled_window_does_not_depend_on_where_the_window_ends():
-    from pendtrack.track.tracker import filled_window
+    from pendtrack.track.templates import filled_window
 
     rng = np.random.default_rng(3)
     fr = yuv_frame(scene(120, 160, 80.0, 60.0, r=9.0, rng=rng))
@@ -220,11 +221,11 @@ def test_half_resolution_window_is_the_whole_half_feature_cut(colour):
 
 
 def test_a_large_marker_is_matched_at_half_resolution_as_well_as_at_full(monkeypatch):
-    from pendtrack.track import tracker
+    from pendtrack.track import templates
 
     frames, truth = swing(40, w=480, h=400, pivot=(240.0, 40.0), arm=280.0, amp=0.6, r=30.0)
     half = track_frames(frames, sampler=raw_sampler(480, 400), params=TrackParams())
-    monkeypatch.setattr(tracker, "HALF_RES_RADIUS_PX", np.inf)
+    monkeypatch.setattr(templates, "HALF_RES_RADIUS_PX", np.inf)
     full = track_frames(frames, sampler=raw_sampler(480, 400), params=TrackParams())
     assert (half.match_scale, full.match_scale) == (2, 1)
     assert half.ok.all() and full.ok.all()
@@ -274,7 +275,8 @@ def test_corrected_sampler_tracks_in_corrected_coordinates():
 
 
 def test_warped_templates_are_computed_once_per_lens_jacobian():
-    from pendtrack.track.tracker import MarkerTracker, _Template, warp_template
+    from pendtrack.track.templates import _Template, warp_template
+    from pendtrack.track.tracker import MarkerTracker
 
     fe = Fisheye(width=320, height=240, projection="equidistant", fov_deg=150.0)
     sampler = WarpedRawSampler(parse_marker_colour("pink"), fisheye=fe)

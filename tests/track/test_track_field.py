@@ -20,8 +20,10 @@ from pendtrack.errors import VideoError
 from pendtrack.stages.angle import angle_stage
 from pendtrack.stages.track import track_stage
 from pendtrack.track.colour import parse_marker_colour
+from pendtrack.track.params import TrackParams
 from pendtrack.track.sampler import RawSampler
-from pendtrack.track.tracker import TrackParams, template_drift, track_frames
+from pendtrack.track.templates import template_drift
+from pendtrack.track.tracker import track_frames
 from pendtrack.video.reader import VideoReader
 
 
@@ -193,7 +195,9 @@ def test_template_drift_is_measured():
 def test_a_drifted_template_is_shifted_back_onto_the_first():
     from test_track_core import scene, yuv_frame
 
-    from pendtrack.track.tracker import MarkerTracker, make_template, marker_candidates
+    from pendtrack.track.detect import marker_candidates
+    from pendtrack.track.templates import make_template
+    from pendtrack.track.tracker import MarkerTracker
 
     rng = np.random.default_rng(0)
     fr = yuv_frame(scene(120, 160, 80.0, 60.0, r=9.0, rng=rng))

@@ -49,7 +49,7 @@ def _bias(radius: float, phase: float) -> np.ndarray:
     size = 2 * int(3 * radius) + 24
     c0 = 2 * (size // 4) + 0.5 + phase  # a chroma sample sits at 2 i + 0.5
     sampler = RawSampler(BLUE, width=size, height=size)
-    half = int(np.ceil(1.3 * radius)) + 2  # the tracker's TEMPLATE_REACH
+    half = int(np.ceil(1.3 * radius)) + 2  # TEMPLATE_REACH of pendtrack.track.templates
     side = 2 * half + 1
     tpl = cv2.getRectSubPix(sampler.window(*_planes(size, size, c0, c0, radius), 0, 0, size, size), (side, side),
                             (c0, c0))

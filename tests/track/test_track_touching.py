@@ -12,8 +12,9 @@ import pytest
 
 from pendtrack.track.colour import parse_marker_colour
 from pendtrack.track.detect import marker_candidates
+from pendtrack.track.params import TrackParams
 from pendtrack.track.sampler import RawSampler
-from pendtrack.track.tracker import TrackParams, track_frames
+from pendtrack.track.tracker import track_frames
 from test_track_core import disc, yuv_frame
 
 WALL, BAR, BALL = 200.0, 80.0, 25.0  # grey levels (the render's: wall ~170, bar ~75, ball ~20)
