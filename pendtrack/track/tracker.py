@@ -1,4 +1,5 @@
-"""Follow the marker through a sequence of frames (Tracker-style template tracking).
+"""Follow the marker through a sequence of frames (Tracker-style template tracking): :func:`track_frames`,
+the per-frame state and step :class:`MarkerTracker`, and the track :class:`TrackResult`.
 
 Per frame:
 
