@@ -29,7 +29,9 @@ from pendtrack.models.kernels.folds import (
 from pendtrack.models.kernels.predictor_corrector import (
     binomial_series, gl_dot, memory_fn, memory_pair, memory_pair_next, pc_kernel_py, series_ratio_pow,
 )
-from pendtrack.models.kernels.rk4 import locate_stop, restart_at_stop, rk4_step, rk_kernel_py, sample_alpha
+from pendtrack.models.kernels.rk4 import (
+    locate_stop, restart_at_stop, rk4_stage, rk4_step, rk_kernel_py, sample_alpha, start_outputs,
+)
 from pendtrack.models.kernels.rk4_sensitivity import accel_grad, rk4_length_derivative, rk4_sens_step, rk_sens_kernel_py
 from pendtrack.models.kernels.rotation import sin_cos_after, sin_cos_at
 from pendtrack.models.terms import K_HAS_MEMORY, empty_coeffs
@@ -114,7 +116,7 @@ def _register() -> None:
         register_jitable(fn)
     for fn in (accel_smooth, friction_pair, friction_mean, accel_terms, accel_free, forcing_at, memory_fn,
                memory_pair, memory_pair_next, series_ratio_pow, sin_cos_after, sin_cos_at, grad_smooth, grad_friction,
-               sample_alpha, restart_at_stop):
+               sample_alpha, restart_at_stop, rk4_stage, start_outputs):
         register_jitable(inline="always")(fn)
     for fn in (direction, rk4_step, locate_stop, rk4_length_derivative):  # larger: ordinary calls (inlining costs compile time)
         register_jitable(fn)

@@ -19,6 +19,20 @@ import math
 from pendtrack.models.kernels.folds import accel_terms, direction, forcing_at, unpack
 from pendtrack.models.kernels.rotation import sin_cos_at
 
+def rk4_stage(theta, st, ct, omega, a, kt, kw, tm, s, k, fm):  # noqa: ANN001, ANN201
+    """An RK4 stage from the step's start state: ``(theta_i, omega_i, sin theta_i, cos theta_i, alpha_i)``.
+
+    ``theta_i = theta + a kt``, ``omega_i = omega + a kw`` (``a``: dt/2 or dt, ``kt, kw``: the
+    previous stage's slopes); the sine is rotated from the start's ``st, ct``; ``alpha_i`` the
+    acceleration at ``tm`` with the forcing value ``fm``. Both RK4 kernels build their stages
+    with it, so their trajectories agree to the last bit.
+    """
+    th = theta + a * kt
+    w = omega + a * kw
+    sn, cs = sin_cos_at(th, theta, st, ct)
+    return th, w, sn, cs, accel_terms(th, sn, w, tm, s, k) + fm
+
+
 def rk4_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h):  # noqa: ANN001, ANN201
     """One RK4 step of length dt with the sgn terms frozen at direction s; returns
     ``(theta, omega, sin theta, cos theta)`` after it.
@@ -28,23 +42,12 @@ def rk4_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h):  # noqa: A
     """
     k1t = omega
     k1w = accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
-    th2 = theta + 0.5 * dt * k1t
-    w2 = omega + 0.5 * dt * k1w
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
-    k2t = w2
-    s2, _ = sin_cos_at(th2, theta, st, ct)
-    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
-    th3 = theta + 0.5 * dt * k2t
-    w3 = omega + 0.5 * dt * k2w
-    k3t = w3
-    s3, _ = sin_cos_at(th3, theta, st, ct)
-    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
-    th4 = theta + dt * k3t
-    w4 = omega + dt * k3w
-    k4t = w4
-    s4, _ = sin_cos_at(th4, theta, st, ct)
-    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
+    _, k2t, _, _, k2w = rk4_stage(theta, st, ct, omega, 0.5 * dt, k1t, k1w, tm, s, k, fm)
+    _, k3t, _, _, k3w = rk4_stage(theta, st, ct, omega, 0.5 * dt, k2t, k2w, tm, s, k, fm)
+    _, k4t, _, _, k4w = rk4_stage(theta, st, ct, omega, dt, k3t, k3w, t + dt, s, k,
+                                  forcing_at(forcing, t + dt, t_start, h))
     th_new = theta + dt * (k1t + 2.0 * k2t + 2.0 * k3t + k4t) / 6.0
     s_new, c_new = sin_cos_at(th_new, theta, st, ct)
     return th_new, omega + dt * (k1w + 2.0 * k2w + 2.0 * k3w + k4w) / 6.0, s_new, c_new
@@ -95,6 +98,25 @@ def sample_alpha(theta, st, omega, t, s, k, forcing, t_start, h):  # noqa: ANN00
     return accel_terms(theta, st, omega, t, s, k) + forcing_at(forcing, t, t_start, h)
 
 
+def start_outputs(theta, omega, t_start, c, kc, forcing, h, out_theta, out_omega, out_alpha):  # noqa: ANN001, ANN201
+    """The first output sample of an RK4 kernel: ``(omega, sin theta, cos theta, s, want_alpha)``.
+
+    ``s`` is the initial direction of motion (0: stuck, then ``omega`` = 0); sin and cos from libm;
+    ``want_alpha``: ``out_alpha`` is to be written (length > 0).
+    """
+    st = math.sin(theta)  # sin, cos of theta: rotated through the sub-steps, from libm at every sample
+    ct = math.cos(theta)
+    s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
+    if s == 0.0:
+        omega = 0.0
+    out_theta[0] = theta
+    out_omega[0] = omega
+    want_alpha = out_alpha.shape[0] > 0
+    if want_alpha:
+        out_alpha[0] = sample_alpha(theta, st, omega, t_start, s, kc, forcing, t_start, h)
+    return omega, st, ct, s, want_alpha
+
+
 def restart_at_stop(theta, t, tc, remaining, c, forcing, t_start, h):  # noqa: ANN001, ANN201
     """After an event at ``t + tc`` (omega = 0 there): ``(theta, sin theta, cos theta, t, remaining, s)``,
     sin and cos from libm, ``s`` the new direction of motion (0: stuck)."""
@@ -122,17 +144,8 @@ def rk_kernel_py(coeffs, n_steps, h, t_start, theta0, omega0, substeps, forcing,
     kc = unpack(c)
     hs = h / substeps
     theta = theta0
-    omega = omega0
-    st = math.sin(theta)  # sin, cos of theta: rotated through the sub-steps, from libm at every sample
-    ct = math.cos(theta)
-    s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
-    if s == 0.0:
-        omega = 0.0
-    out_theta[0] = theta
-    out_omega[0] = omega
-    want_alpha = out_alpha.shape[0] > 0
-    if want_alpha:
-        out_alpha[0] = sample_alpha(theta, st, omega, t_start, s, kc, forcing, t_start, h)
+    omega, st, ct, s, want_alpha = start_outputs(theta, omega0, t_start, c, kc, forcing, h, out_theta, out_omega,
+                                                 out_alpha)
     for i in range(n_steps):
         for j in range(substeps):
             t = t_start + i * h + j * hs

@@ -15,7 +15,7 @@ import numpy as np
 from pendtrack.models.kernels.folds import (
     _SCATTER, accel_terms, direction, forcing_at, grad_friction, grad_smooth, unpack,
 )
-from pendtrack.models.kernels.rk4 import locate_stop, restart_at_stop, sample_alpha
+from pendtrack.models.kernels.rk4 import locate_stop, restart_at_stop, rk4_stage, sample_alpha, start_outputs
 from pendtrack.models.kernels.rotation import sin_cos_at
 
 def accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca):  # noqa: ANN001, ANN201
@@ -59,24 +59,18 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
     a_th, a_om = accel_grad(theta, st, ct, omega, t, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):  # w[0]: dk1t = som, w[1]: dk1w; w[2], w[3]: the next stage's state derivatives
         w[0, j] = a_th * sth[j] + a_om * som[j] + g[j]  # dk1w
-    th2 = theta + 0.5 * dt * k1t
-    w2 = omega + 0.5 * dt * k1w
     tm = t + 0.5 * dt
     fm = forcing_at(forcing, tm, t_start, h)
+    th2, w2, s2, c2, k2w = rk4_stage(theta, st, ct, omega, 0.5 * dt, k1t, k1w, tm, s, k, fm)
     k2t = w2
-    s2, c2 = sin_cos_at(th2, theta, st, ct)
-    k2w = accel_terms(th2, s2, w2, tm, s, k) + fm
     a_th, a_om = accel_grad(th2, s2, c2, w2, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th2 = sth[j] + 0.5 * dt * som[j]
         d_w2 = som[j] + 0.5 * dt * w[0, j]
         w[1, j] = d_w2  # dk2t
         w[2, j] = a_th * d_th2 + a_om * d_w2 + g[j]  # dk2w
-    th3 = theta + 0.5 * dt * k2t
-    w3 = omega + 0.5 * dt * k2w
+    th3, w3, s3, c3, k3w = rk4_stage(theta, st, ct, omega, 0.5 * dt, k2t, k2w, tm, s, k, fm)
     k3t = w3
-    s3, c3 = sin_cos_at(th3, theta, st, ct)
-    k3w = accel_terms(th3, s3, w3, tm, s, k) + fm
     a_th, a_om = accel_grad(th3, s3, c3, w3, tm, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th3 = sth[j] + 0.5 * dt * w[1, j]
@@ -87,11 +81,9 @@ def rk4_sens_step(theta, st, ct, omega, t, dt, s, k, forcing, t_start, h, sth, s
         w[1, j] = som[j] + 2.0 * w[1, j] + 2.0 * d_w3
         w[2, j] = d_w3  # dk3t
         w[3, j] = dk3w
-    th4 = theta + dt * k3t
-    w4 = omega + dt * k3w
+    th4, w4, s4, c4, k4w = rk4_stage(theta, st, ct, omega, dt, k3t, k3w, t + dt, s, k,
+                                     forcing_at(forcing, t + dt, t_start, h))
     k4t = w4
-    s4, c4 = sin_cos_at(th4, theta, st, ct)
-    k4w = accel_terms(th4, s4, w4, t + dt, s, k) + forcing_at(forcing, t + dt, t_start, h)
     a_th, a_om = accel_grad(th4, s4, c4, w4, t + dt, s, k, kn, slot_index, dcoeffs, g, dca)
     for j in range(n_p):
         d_th4 = sth[j] + dt * w[2, j]
@@ -213,19 +205,11 @@ def rk_sens_kernel_py(coeffs, slot_index, dcoeffs, n_steps, h, t_start, theta0, 
     delta = np.zeros(n_p)  # d(start time of the current segment)/dp, when it starts pinned at an event
     hs = h / substeps
     theta = theta0
-    omega = omega0
-    st = math.sin(theta)  # as rk_kernel_py: rotated through the sub-steps, from libm at every sample
-    ct = math.cos(theta)
-    s = direction(theta, omega, t_start, c, forcing_at(forcing, t_start, t_start, h))
-    if s == 0.0:
-        omega = 0.0
+    omega, st, ct, s, want_alpha = start_outputs(theta, omega0, t_start, c, kc, forcing, h, out_theta, out_omega,
+                                                 out_alpha)
+    if s == 0.0:  # stuck at the start: omega = 0 whatever the parameters
         for j in range(n_p):
             som[j] = 0.0
-    out_theta[0] = theta
-    out_omega[0] = omega
-    want_alpha = out_alpha.shape[0] > 0
-    if want_alpha:
-        out_alpha[0] = sample_alpha(theta, st, omega, t_start, s, kc, forcing, t_start, h)
     for j in range(n_p):
         out_dtheta[0, j] = sth[j]
         out_domega[0, j] = som[j]
