@@ -77,27 +77,13 @@ def batch_stage(folder: str | Path, *, out_dir: str | Path, config: Config, mode
 
     Parameters
     ----------
-    folder : path
-        Folder of videos named by run code (``06na5.mp4``; see :mod:`pendtrack.batch.runcode`).
-    out_dir : path
-        Batch output folder (created).
-    config : Config
-        Pipeline configuration; its ``[batch]`` section holds the scheduling defaults.
-    models : tuple of str, optional
-        Models to fit; default ``config.fit.models``.
-    scheduler : str, optional
-        ``processes`` or a Dask scheduler address ``tcp://HOST:PORT``; default ``config.batch.scheduler``.
-    workers : int, optional
-        Local worker processes (0 = all cores); default ``config.batch.workers``.
-    discover : bool
-        Also run discovery per run.
-    force : bool
-        Recompute every run and stage, complete or not.
+    folder, out_dir, config, models, scheduler, workers, discover, force
+        As :func:`pendtrack.batch.campaign.run_campaign`; ``out_dir`` is created.
     progress : bool
         One progress bar over the runs on stderr (workers never draw any).
     job : callable
-        The per-run job, module-level with the :class:`pendtrack.batch.worker.Job` signature
-        (tests inject a stand-in).
+        The per-run job (:class:`pendtrack.batch.worker.Job`); default the pipeline's, tests
+        inject a stand-in.
 
     Returns
     -------
@@ -105,10 +91,8 @@ def batch_stage(folder: str | Path, *, out_dir: str | Path, config: Config, mode
 
     Raises
     ------
-    BatchError
-        ``folder`` does not exist or holds no video files.
-    ConfigError, ModelError
-        Bad scheduler or workers, unknown model (before any run starts).
+    BatchError, ConfigError, ModelError
+        As :func:`~pendtrack.batch.campaign.run_campaign`, before any run starts or file is written.
     """
     campaign = run_campaign(folder, out_dir=out_dir, config=config, job=job, models=models, scheduler=scheduler,
                             workers=workers, discover=discover, force=force,
