@@ -5,9 +5,11 @@
 * :mod:`pendtrack.batch.worker` is what runs in a worker around the per-run job (log, done marker);
 * :mod:`pendtrack.batch.executor` runs tasks on local processes or a Dask cluster;
 * :mod:`pendtrack.batch.summary` builds summary.parquet/csv from the run artifacts;
-* :mod:`pendtrack.batch.twocuboid` fits eq. consistencycheck to Omega0(l1).
+* :mod:`pendtrack.batch.twocuboid` fits eq. consistencycheck to Omega0(l1);
+* :mod:`pendtrack.batch.campaign` ties them together: :func:`~pendtrack.batch.campaign.run_campaign`
+  plans, resumes, runs and summarises a folder's runs (the batch's one core call).
 
-The stage that ties them together is :func:`pendtrack.stages.batch.batch_stage`, and the
+The stage :func:`pendtrack.stages.batch.batch_stage` calls it and writes the batch's files; the
 per-run job (the pipeline's stages) is :func:`pendtrack.stages.batch_job.pipeline_job`:
 ``batch`` never imports ``stages``. Process pools and thread limits come from
 :mod:`pendtrack.parallel`. Nothing heavy is imported here.

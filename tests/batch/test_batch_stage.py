@@ -157,6 +157,42 @@ def test_a_dying_worker_is_recorded_as_failed(tmp_path):
     assert read_artifact(res.summary, "summary").data.shape[0] == 2
 
 
+def test_the_campaign_plans_runs_and_summarises_and_leaves_the_batch_files_to_the_stage(tmp_path):
+    from contextlib import contextmanager
+
+    from pendtrack.artifacts import file_sha256
+    from pendtrack.batch.campaign import run_campaign
+    from pendtrack.stages.batch import BATCH_JSON_KEYS
+
+    specs = {**dict(list(GOOD.items())[:2]), "12nn1.mp4": {"fail": "cannot decode"},
+             "hello.mp4": {"frames": 10, "omega0": 1.0}}
+    folder = make_folder(tmp_path / "videos", specs)
+    out = tmp_path / "out"
+    ticks = []
+
+    @contextmanager
+    def progress(total):
+        ticks.append(("open", total))
+        yield ticks.append
+
+    camp = run_campaign(folder, out_dir=out, config=CFG, job=fake_job, workers=1, progress=progress)
+    assert ticks[0] == ("open", 3) and ticks[1:] == [1, 1, 1]
+    assert [r.run_id for r in camp.planned] == [r.run_id for r in camp.runs] == ["00nn1", "06na5", "12nn1"]
+    assert [r.status for r in camp.runs] == ["ok", "ok", "failed"] and "cannot decode" in camp.runs[2].reason
+    assert camp.counts == {"videos": 4, "runs": 3, "ok": 2, "resumed": 0, "failed": 1, "skipped": 1}
+    assert [s.video.name for s in camp.skipped] == ["hello.mp4"]
+    assert camp.inputs == {n: file_sha256(folder / n) for n in ("00nn1.mp4", "06na5.mp4")}
+    assert list(camp.summary["file"]) == ["00nn1.mp4", "06na5.mp4", "12nn1.mp4", "hello.mp4"]
+    assert camp.summary["classic__Omega0__value"].iloc[:2].tolist() == [5.22, 5.18]
+    assert camp.groups["kind"]["nn"] == {"runs": 2, "ok": 1, "failed": 1}
+    assert camp.two_cuboid["status"] == "too few runs"
+    assert camp.config.fit.workers == CFG.batch.inner_workers and camp.models == ("classic",)
+    assert set(BATCH_JSON_KEYS) <= set(camp.to_dict()) and camp.to_dict()["failures"][0]["run_id"] == "12nn1"
+    assert sorted(p.name for p in out.iterdir()) == ["00nn1", "06na5", "12nn1"]  # no summary, batch.json, report
+    again = run_campaign(folder, out_dir=out, config=CFG, job=fake_job, workers=1)
+    assert [r.resumed for r in again.runs] == [True, True, False]
+
+
 KILL_SCRIPT = """
 import sys
 sys.path.insert(0, {here!r})

@@ -203,3 +203,16 @@ def test_unreachable_dask_scheduler_is_a_user_error():
 
     with pytest.raises(PendtrackError, match="cannot connect to the Dask scheduler at tcp://127.0.0.1:9"):
         DaskExecutor("tcp://127.0.0.1:9", timeout_s=1.0)
+
+
+@pytest.mark.parametrize("make", ["missing", "no_videos"])
+def test_a_campaign_without_videos_fails_before_any_run(tmp_path, make):
+    from pendtrack.batch.campaign import BatchError, run_campaign
+
+    folder = tmp_path / "videos"
+    if make == "no_videos":
+        folder.mkdir()
+        (folder / "notes.txt").write_text("x")
+    with pytest.raises(BatchError, match="folder not found" if make == "missing" else "no video files"):
+        run_campaign(folder, out_dir=tmp_path / "out", config=Config(), job=print)
+    assert not (tmp_path / "out").exists()
