@@ -126,6 +126,9 @@ def test_shared_standard_error_beats_the_single_runs(joint):
     # separates C0 from the velocity-dependent drag, so the joint error may be smaller still (issue #29: <= 1.5/sqrt(n))
     assert rec["stderr_ratio"]["C0"] <= 1.5 / math.sqrt(4)
     assert rec["stderr_ratio"]["C0"] == pytest.approx(c0 / np.mean(singles))
+    # what to quote, as a single fit says it: the sandwich standard error of every joint parameter that has one
+    assert set(rec["quote"]) == set(rec["covariance"]["names"])
+    assert rec["quote"]["C0"] == "stderr"
 
 
 def test_library_door_gives_the_cli_numbers(joint, runs, tmp_path):

@@ -7,7 +7,7 @@ over all runs pooled, plus::
      "runs"}}}, "runs": {run: {"labels", "params", "initial_state", "columns", "xi2", "rms", "n", "window",
      "flags", "single": {"params", "initial_state", "xi2_min", "rms", "converged"}}}, "stderr_ratio",
      "n_starts", "n_accepted", "start_costs", "hac_lags", "covariance", "cost", "accept_ratio",
-     "stderr_naive", "u_region", "message", "flags", "trustworthy"}
+     "stderr_naive", "u_region", "message", "flags", "trustworthy", "quote": {label: "stderr" or null}}
 
 ``params`` holds the parameters shared by every run; ``groups`` the ones fitted per group of runs
 (per tile, per tile and alley, ...); each run's entry every value it was simulated with (its
@@ -27,7 +27,9 @@ import numpy as np
 
 from pendtrack.fitting.estimate import _floor
 from pendtrack.fitting.joint.scopes import RUN, STATE_NAMES, Scope, scope_text
-from pendtrack.fitting.result import FitResult, ParamEstimate, _measurement_params, _num, plausibility_flags
+from pendtrack.fitting.result import (
+    FitResult, ParamEstimate, _measurement_params, _num, plausibility_flags, quote_method,
+)
 
 if TYPE_CHECKING:
     from pendtrack.config import FitConfig
@@ -223,6 +225,7 @@ class JointFit:
             "u_region": {k: _num(v.u_region) for k, v in self.estimates.items()},
             "covariance": {"names": list(self.estimates), "matrix": [[_num(x) for x in row] for row in cov.tolist()]},
             "message": self.message, "flags": dict(self.flags), "trustworthy": self.trustworthy,
+            "quote": {k: quote_method(v) for k, v in self.estimates.items()},
         }
 
 
