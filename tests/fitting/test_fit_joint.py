@@ -227,3 +227,36 @@ def test_batch_joint_fits_the_runs_of_a_batch_folder(runs, tmp_path):
     assert res.facts["runs"] == ["03na1", "06na2"] and set(rec["runs"]) == {"03na1", "06na2"}
     with pytest.raises(FitError, match="at least two runs"):
         batch_joint_fit(batch_dir, ["03na1"], config=config, models=("standard",))
+
+
+def test_joint_curves_observe_each_runs_own_offset(runs):
+    # two runs of one tile (every model parameter shared) whose camera zeros differ by 30 mrad: each run's curve
+    # is its observed angle, the model's theta plus the run's own theta_off
+    from pendtrack.fitting.joint import fit_joint, joint_curves
+    from pendtrack.fitting.leastsq.samples import Record
+    from pendtrack.models import compose
+
+    shift = {"03na1": 0.0, "03na2": 0.03}  # rad
+    records = {}
+    for run, path in zip(RUNS, runs):
+        if run in shift:
+            kin = read_artifact(path, "kinematics")
+            df = kin.data
+            obs = observation_from(kin.provenance.extra, kin.provenance.config, df["t"].to_numpy())
+            records[run] = Record(df["t"].to_numpy(), df["theta"].to_numpy() + shift[run], df["omega"].to_numpy(),
+                                  ok=df["ok"].to_numpy(bool), observation=obs)
+    model = compose(get_model("standard"), ["offset"])
+    config = Config().replace("fit", n_starts=3, workers=1, profile=False, joint_starts=2)
+    fit = fit_joint(model, records, options=config.fit, sharing={"theta_off": "run"})
+    times = {r: (rec.t, rec.theta) for r, rec in records.items()}
+    curves = joint_curves({"standard": fit}, times)  # the model by its name, "standard+offset", as the stage does
+    given = joint_curves({"standard": fit}, times, models={"standard": model})
+    assert all(np.array_equal(curves[k], given[k]) for k in ("t", "theta_model", "omega_model", "run"))
+    offsets = {run: fit.runs[run].params["theta_off"] for run in records}
+    # the shift comes back (standard errors ~0.1 mrad each; 1 mrad: what the curves below need to tell it from 0)
+    assert offsets["03na2"].value - offsets["03na1"].value == pytest.approx(0.03, abs=1e-3)
+    for run in records:
+        rows = curves["run"] == run
+        assert np.array_equal(curves["theta"][rows], records[run].theta)
+        # without its theta_off a curve would miss by the 30-mrad shift; with it, by the noise
+        assert np.sqrt(np.mean(curves["residual"][rows] ** 2)) < 0.01
