@@ -161,6 +161,19 @@ SCHEMAS: dict[str, ArtifactSchema] = {
             "Best-fit model curves against the data.",
         ),
         ArtifactSchema(
+            "joint_fit", "fit_runs.parquet", 1,
+            (
+                _c("t", "float64", "s", "time"),
+                _c("theta", "float64", "rad", "measured angle"),
+                _c("theta_model", "float64", "rad", "jointly fitted model angle, from the run's own fitted initial state"),
+                _c("omega_model", "float64", "rad/s", "jointly fitted model angular velocity"),
+                _c("residual", "float64", "rad", "theta - theta_model"),
+                _c("model", "str", "1", "model name"),
+                _c("run", "str", "1", "run id (run code, else the record's name)"),
+            ),
+            "A joint fit's model curves against each run's data, one block per model and run.",
+        ),
+        ArtifactSchema(
             "summary", "summary.parquet", 1,
             (
                 _c("run_id", "str", "1", "run code plus lower-cased file-name suffix (the run's folder); '' if skipped"),

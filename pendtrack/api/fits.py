@@ -29,7 +29,8 @@ class ModelFit:
     record : dict
         ``fit_<name>.json`` as the CLI writes it (provenance included).
     curves : DataFrame
-        t, theta, theta_model, omega_model, residual of this model (fit.parquet's rows).
+        t, theta, theta_model, omega_model, residual of this model (fit.parquet's rows; a joint fit's:
+        fit_runs.parquet's, with each row's ``run``).
     """
 
     name: str
@@ -164,7 +165,8 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
         paths or DataFrames, or a mapping run id -> DataFrame, e.g. ``{"06na5": df}``; a path is named by its
         own file or folder, a DataFrame of a list ``run1``, ``run2``, ...) are
         fitted jointly (:func:`pendtrack.stages.series.series_fit_stage`): each :class:`ModelFit`'s
-        record is then the joint ``fit_<model>.json`` and its curves are empty.
+        record is then the joint ``fit_<model>.json`` and its curves its rows of ``fit_runs.parquet``
+        (every run's, with a ``run`` column).
     shared, per_run : sequence of str
         Several records: parameters shared by every run, or fitted per run (``--shared``, ``--per-run``).
     per_group : mapping, optional
@@ -221,8 +223,8 @@ def _fit_series(records: Sequence[Any] | Mapping[str, Any], names: tuple[str, ..
     import tempfile
 
     from pendtrack.api.frames import write_frame
-    from pendtrack.artifacts import read_json_artifact
-    from pendtrack.stages.series import series_fit_stage
+    from pendtrack.artifacts import read_artifact, read_json_artifact
+    from pendtrack.stages.series import CURVES, series_fit_stage
 
     items = list(records.items()) if isinstance(records, Mapping) else [(None, r) for r in records]
     with tempfile.TemporaryDirectory(prefix="pendtrack-") as scratch, workdir(out) as folder:
@@ -236,6 +238,7 @@ def _fit_series(records: Sequence[Any] | Mapping[str, Any], names: tuple[str, ..
                 paths.append(Path(rec))
         res = series_fit_stage(paths, out_dir=folder, config=config, models=names, sharing=sharing, force=True)
         combined = read_json_artifact(res.paths[0], required=())
-        fits = {n: ModelFit(n, read_json_artifact(folder / res.facts["files"][n], required=()), pd.DataFrame())
-                for n in names}
+        curves = read_artifact(folder / CURVES, "joint_fit").data
+        fits = {n: ModelFit(n, read_json_artifact(folder / res.facts["files"][n], required=()),
+                            curves[curves["model"] == n].reset_index(drop=True)) for n in names}
     return FitSet(fits, combined)

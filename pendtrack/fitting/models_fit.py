@@ -261,7 +261,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         combined = {"models": records, "files": files, "selected": selected, "selected_by": SELECTED_BY[bool(trusted)],
                     "all_converged": len(converged) == len(names), "cross_model": cross}
     return ModelFits(results=results, records=records, files=files, combined=combined,
-                     curves=_curves(results, model_objs, t, theta), facts=facts)
+                     curves=fit_curves(results, model_objs, t, theta), facts=facts)
 
 
 def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
@@ -308,8 +308,8 @@ def _model_facts(r: FitResult) -> dict[str, Any]:
             "runtime_s": _num(r.runtime_s), "message": r.message}
 
 
-def _curves(results: Mapping[str, FitResult], model_objs: Mapping[str, Any], t: np.ndarray,
-            theta: np.ndarray) -> dict[str, np.ndarray]:
+def fit_curves(results: Mapping[str, FitResult], model_objs: Mapping[str, Any], t: np.ndarray,
+               theta: np.ndarray) -> dict[str, np.ndarray]:
     """fit.parquet's columns: every model's simulated curves (from its fitted initial state), stacked.
 
     A model whose fitted curve cannot be integrated over the record (a fit that did not converge,

@@ -9,9 +9,11 @@ its run code (:mod:`pendtrack.batch.runcode`: the file's stem, else its folder's
 :func:`pendtrack.fitting.models_fit.fits_offset`).
 
 Files: ``fit_<model>.json`` per model (:mod:`pendtrack.fitting.joint.outcome`: the issue's keys over
-the runs pooled, the shared values, the groups, each run's values and residual) and ``fit.json``
+the runs pooled, the shared values, the groups, each run's values and residual), ``fit.json``
 (the one model's record, or ``{"models", "files", "selected", "all_converged"}`` with the lowest
-BIC among the converged fits). All are written atomically, after every fit succeeded.
+BIC among the converged fits) and ``fit_runs.parquet`` (schema ``joint_fit``: each model's curves
+on each run's times, :func:`pendtrack.fitting.joint.joint_curves`). All are written atomically,
+after every fit succeeded.
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, inputs_for, write_json_artifact
+import pandas as pd
+
+from pendtrack.artifacts import FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, write_artifact, write_json_artifact
 from pendtrack.batch.runcode import RunCodeError, parse_run_code
 from pendtrack.config import Config
 from pendtrack.errors import FitError
-from pendtrack.fitting.joint import JointFit, fit_joint, resolve_scopes
+from pendtrack.fitting.joint import JointFit, fit_joint, joint_curves, resolve_scopes
 from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.models_fit import check_models, fits_offset, model_json_name, observation_from
 from pendtrack.stages import StageOutput, up_to_date
@@ -35,6 +39,8 @@ from pendtrack.stages.kinematics import kinematics_input
 from pendtrack.tables import TableSpec
 
 log = logging.getLogger(__name__)
+
+CURVES = SCHEMAS["joint_fit"].filename  # fit_runs.parquet
 
 
 def run_names(paths: Sequence[Path]) -> tuple[list[str], list[dict[str, str]]]:
@@ -72,7 +78,7 @@ def run_names(paths: Sequence[Path]) -> tuple[list[str], list[dict[str, str]]]:
 def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, config: Config,
                      models: tuple[str, ...] | None = None, sharing: Mapping[str, str] | None = None,
                      table: TableSpec | None = None, force: bool = False) -> StageOutput:
-    """Fit each model jointly to every record; writes fit_<model>.json and fit.json in ``out_dir``.
+    """Fit each model jointly to every record; writes fit_<model>.json, fit.json and fit_runs.parquet in ``out_dir``.
 
     Parameters
     ----------
@@ -95,7 +101,7 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
     Returns
     -------
     StageOutput
-        ``paths``: fit.json, then the per-model files. ``facts``: ``models`` (per model: converged,
+        ``paths``: fit.json, the per-model files, then fit_runs.parquet. ``facts``: ``models`` (per model: converged,
         trustworthy, flags, xi2_min, rms, bic, shared values, runtime_s, message), ``runs``,
         ``not_converged``, ``flagged``, ``selected``, ``files``.
 
@@ -123,8 +129,9 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
     sections = {**fit_sections(config, {}, names), "runs": {r: s for r, (_, s) in zip(runs, read)},
                 "sharing": dict(sharing or {})}
     inputs = inputs_for(*paths)
-    out_paths = (out_dir / COMBINED, *(out_dir / model_json_name(n) for n in names))
-    if up_to_date(out_paths, "fit", inputs=inputs, config=sections, force=force):
+    out_paths = (out_dir / COMBINED, *(out_dir / model_json_name(n) for n in names), out_dir / CURVES)
+    if (up_to_date(out_paths[:-1], "fit", inputs=inputs, config=sections, force=force)
+            and up_to_date(out_paths[-1:], "joint_fit", inputs=inputs, config=sections, force=force)):
         record = json.loads((out_dir / COMBINED).read_text(encoding="utf-8"))
         return StageOutput(out_paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
 
@@ -141,7 +148,9 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
     fits = fit_series(model_objs, records, offset=offset, sharing=sharing, labels=dict(zip(runs, labels)),
                       config=config)
     payloads, facts = series_payloads(fits, runs=runs)
+    curves = joint_curves(fits, {r: (rec.t, rec.theta) for r, rec in records.items()})
     prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=facts)
+    write_artifact(pd.DataFrame(curves), out_dir / CURVES, "joint_fit", provenance=prov)
     for name, payload in payloads.items():
         if name != COMBINED:
             write_json_artifact(payload, out_dir / name, required=FIT_JSON_KEYS, provenance=prov)

@@ -16,11 +16,12 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_json_artifact, write_artifact
+from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_artifact, read_json_artifact, write_artifact
 from pendtrack.cli import cli
 from pendtrack.config import Config
 from pendtrack.errors import FitError
 from pendtrack.fitting.joint import default_scopes, resolve_scopes, sharing_from_lists
+from pendtrack.fitting.models_fit import observation_from
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import kinematics_stage
 
@@ -52,11 +53,12 @@ def runs(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="module")
 def joint(runs, tmp_path_factory: pytest.TempPathFactory):
-    """`pendtrack fit` over the four runs: its exit, output and fit_standard.json."""
+    """`pendtrack fit` over the four runs: its exit, output, fit_standard.json and output folder."""
     out = tmp_path_factory.mktemp("joint")
     res = CliRunner().invoke(cli, ["fit", *runs, "--model", "standard", *STARTS, "-q", "--out", str(out),
                                    "--config", str(_config_file(out))])
-    return res, read_json_artifact(out / "fit_standard.json", required=FIT_JSON_KEYS) if res.exit_code == 0 else None
+    rec = read_json_artifact(out / "fit_standard.json", required=FIT_JSON_KEYS) if res.exit_code == 0 else None
+    return res, rec, out
 
 
 def _config_file(folder) -> object:
@@ -94,7 +96,7 @@ def test_a_parameter_declared_twice_is_an_error():
 
 
 def test_joint_fit_recovers_the_shared_and_the_per_tile_values(joint):
-    res, rec = joint
+    res, rec, _ = joint
     assert res.exit_code == 0, res.output
     assert "standard (joint, 4 runs): converged" in res.output
     assert rec["joint"] is True and rec["n_runs"] == 4 and rec["converged"] is True
@@ -118,7 +120,7 @@ def test_joint_fit_recovers_the_shared_and_the_per_tile_values(joint):
 
 
 def test_shared_standard_error_beats_the_single_runs(joint):
-    _, rec = joint
+    _, rec, _ = joint
     c0 = rec["params"]["C0"]["stderr"]
     singles = [r["single"]["params"]["C0"]["stderr"] for r in rec["runs"].values()]
     assert c0 < min(singles)
@@ -131,14 +133,49 @@ def test_shared_standard_error_beats_the_single_runs(joint):
     assert rec["quote"]["C0"] == "stderr"
 
 
+def test_joint_fit_writes_each_runs_curves(joint, runs):
+    res, rec, out = joint
+    assert res.exit_code == 0, res.output
+    curves = read_artifact(out / "fit_runs.parquet", "joint_fit").data
+    assert set(curves["model"]) == {"standard"} and list(dict.fromkeys(curves["run"])) == list(RUNS)
+    for run, path in zip(RUNS, runs):
+        rows = curves[curves["run"] == run]
+        kin = read_artifact(path, "kinematics")
+        np.testing.assert_array_equal(rows["t"], kin.data["t"])  # the run's own times and measured angle
+        np.testing.assert_array_equal(rows["theta"], kin.data["theta"])
+        np.testing.assert_array_equal(rows["residual"], rows["theta"] - rows["theta_model"])
+        assert float(np.sqrt(np.mean(rows["residual"] ** 2))) < 0.01  # 3 mrad noise, smoothed: ~1 mrad
+        # the fit's own residual: these curves seen through the data's Savitzky-Golay filter from the start of
+        # the run's window, on its samples after the filter's first half-window, give the run's rms in
+        # fit_standard.json (same simulation; the window already ends a half-window before the record)
+        own = rec["runs"][run]
+        h = float(np.median(np.diff(rows["t"])))
+        after = rows[rows["t"] >= own["window"][0] - h / 2]
+        obs = observation_from(kin.provenance.extra, kin.provenance.config, kin.data["t"].to_numpy())
+        seen, _ = obs.apply(after["theta_model"].to_numpy(), after["omega_model"].to_numpy(), h)
+        cost = np.arange(len(after)) >= obs.trim
+        cost &= after["t"].to_numpy() <= own["window"][1] + h / 2
+        assert cost.sum() == own["n"]
+        rms = float(np.sqrt(np.mean((after["theta"].to_numpy()[cost] - seen[cost]) ** 2)))
+        # the fit steps RK4 with sub-steps of Omega h <= [fit] substep_phase (0.025 rad), the curves (as a single
+        # fit's fit.parquet, pendtrack.fitting.predict) with the simulation's own: ~1e-7 rad apart on theta, which
+        # moves the rms by ~1e-6 of itself (measured <= 1e-6); the run's own single-fit values instead of the
+        # joint ones move it by ~7e-3 of itself
+        assert rms == pytest.approx(own["rms"], rel=1e-5, abs=0), (run, rms, own["rms"])
+
+
 def test_library_door_gives_the_cli_numbers(joint, runs, tmp_path):
     import pendtrack as pt
 
-    _, rec = joint
+    _, rec, out = joint
     fits = pt.fit(runs, "standard", config=_config_file(tmp_path), starts=3, workers=1)
     lib = fits["standard"].to_dict()
     assert lib["params"] == rec["params"] and lib["groups"] == rec["groups"]
     assert {r: v["params"] for r, v in lib["runs"].items()} == {r: v["params"] for r, v in rec["runs"].items()}
+    # its curves are the CLI's fit_runs.parquet rows (the same joint fit, the same simulation)
+    cli_curves = read_artifact(out / "fit_runs.parquet", "joint_fit").data
+    pd.testing.assert_frame_equal(fits["standard"].curves, cli_curves[cli_curves["model"] == "standard"]
+                                  .reset_index(drop=True))
 
 
 def test_per_run_declaration_fits_a_value_per_run(runs, tmp_path):
@@ -190,3 +227,36 @@ def test_batch_joint_fits_the_runs_of_a_batch_folder(runs, tmp_path):
     assert res.facts["runs"] == ["03na1", "06na2"] and set(rec["runs"]) == {"03na1", "06na2"}
     with pytest.raises(FitError, match="at least two runs"):
         batch_joint_fit(batch_dir, ["03na1"], config=config, models=("standard",))
+
+
+def test_joint_curves_observe_each_runs_own_offset(runs):
+    # two runs of one tile (every model parameter shared) whose camera zeros differ by 30 mrad: each run's curve
+    # is its observed angle, the model's theta plus the run's own theta_off
+    from pendtrack.fitting.joint import fit_joint, joint_curves
+    from pendtrack.fitting.leastsq.samples import Record
+    from pendtrack.models import compose
+
+    shift = {"03na1": 0.0, "03na2": 0.03}  # rad
+    records = {}
+    for run, path in zip(RUNS, runs):
+        if run in shift:
+            kin = read_artifact(path, "kinematics")
+            df = kin.data
+            obs = observation_from(kin.provenance.extra, kin.provenance.config, df["t"].to_numpy())
+            records[run] = Record(df["t"].to_numpy(), df["theta"].to_numpy() + shift[run], df["omega"].to_numpy(),
+                                  ok=df["ok"].to_numpy(bool), observation=obs)
+    model = compose(get_model("standard"), ["offset"])
+    config = Config().replace("fit", n_starts=3, workers=1, profile=False, joint_starts=2)
+    fit = fit_joint(model, records, options=config.fit, sharing={"theta_off": "run"})
+    times = {r: (rec.t, rec.theta) for r, rec in records.items()}
+    curves = joint_curves({"standard": fit}, times)  # the model by its name, "standard+offset", as the stage does
+    given = joint_curves({"standard": fit}, times, models={"standard": model})
+    assert all(np.array_equal(curves[k], given[k]) for k in ("t", "theta_model", "omega_model", "run"))
+    offsets = {run: fit.runs[run].params["theta_off"] for run in records}
+    # the shift comes back (standard errors ~0.1 mrad each; 1 mrad: what the curves below need to tell it from 0)
+    assert offsets["03na2"].value - offsets["03na1"].value == pytest.approx(0.03, abs=1e-3)
+    for run in records:
+        rows = curves["run"] == run
+        assert np.array_equal(curves["theta"][rows], records[run].theta)
+        # without its theta_off a curve would miss by the 30-mrad shift; with it, by the noise
+        assert np.sqrt(np.mean(curves["residual"][rows] ** 2)) < 0.01

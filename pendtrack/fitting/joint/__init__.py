@@ -5,19 +5,21 @@ Public API::
     fit_joint(model, records, *, sharing, labels, options, model_options, seed, workers, pool) -> JointFit
     resolve_scopes(model, sharing, *, labels) -> {name: scope}      # the defaults, overridden, checked
     sharing_from_lists(shared=..., per_run=..., per_group=...) -> {name: scope text}
+    joint_curves(fits, records, *, models) -> fit_runs.parquet's columns   # each run's fitted curves
 
 The runs share parameters across all runs, per group of runs (by the run codes' tile, launch and
 alley) or per run (:mod:`~pendtrack.fitting.joint.scopes`); the joint residual stacks each run's
 single-run problem (:mod:`~pendtrack.fitting.joint.stacked`); the steps are the single fit's
 (:mod:`~pendtrack.fitting.joint.solve`); the result and fit_<model>.json's shape are in
-:mod:`~pendtrack.fitting.joint.outcome`.
+:mod:`~pendtrack.fitting.joint.outcome`; each run's fitted curves in :mod:`~pendtrack.fitting.joint.curves`.
 """
 
 from __future__ import annotations
 
+from pendtrack.fitting.joint.curves import joint_curves
 from pendtrack.fitting.joint.outcome import JointFit, JointRun
 from pendtrack.fitting.joint.scopes import default_scopes, parse_scope, resolve_scopes, sharing_from_lists
 from pendtrack.fitting.joint.solve import fit_joint
 
-__all__ = ["JointFit", "JointRun", "default_scopes", "fit_joint", "parse_scope", "resolve_scopes",
+__all__ = ["JointFit", "JointRun", "default_scopes", "fit_joint", "joint_curves", "parse_scope", "resolve_scopes",
            "sharing_from_lists"]

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -186,6 +186,18 @@ class JointFit:
             mean = float(np.mean(own))
             out[name] = est.stderr / mean if math.isfinite(mean) and mean > 0 else math.nan
         return out
+
+    def run_result(self, run: str) -> FitResult:
+        """Run ``run`` at the joint optimum, as a single fit's :class:`~pendtrack.fitting.result.FitResult`.
+
+        Its own fit with the joint values (model parameters, initial state at the start of its
+        window), the joint verdict and its window, residual and samples: what
+        :func:`pendtrack.fitting.predict.predict` takes to simulate the jointly fitted model on the
+        run's times (its step, memory and filter settings are the run's own fit's).
+        """
+        r = self.runs[run]
+        return replace(r.single, model=self.model, params=dict(r.params), initial_state=dict(r.initial_state),
+                       window=r.window, rms=r.rms, n=r.n, converged=self.converged)
 
     def groups(self) -> dict[str, dict[str, dict[str, Any]]]:
         """Per parameter fitted per group of runs: group -> value, stderr, u_paper and its runs."""
