@@ -18,12 +18,13 @@ and ``06NA05.mov``) are a conflict: the first in name order is run, the others s
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from pendtrack.config import VIDEO_SUFFIXES
-from pendtrack.errors import PendtrackError
+from pendtrack.errors import FitError, PendtrackError
 
 RUN_CODE_RE = re.compile(
     r"(?P<tile>\d{2})(?P<launch>[ln])(?P<alley>[an])(?P<trial>\d+)(?:[_\-. ](?P<suffix>.+))?",
@@ -112,6 +113,39 @@ def parse_run_code(name: str | Path) -> RunCode:
     return RunCode(tile_cm=int(m["tile"]), launched=m["launch"].lower() == "l", alley=m["alley"].lower() == "a",
                    trial=int(m["trial"]), suffix=suffix)
 
+
+
+def run_names(paths: Sequence[Path]) -> tuple[list[str], list[dict[str, str]]]:
+    """Each record's run id and run-code labels (``tile``, ``launched``, ``alley``; empty without a code).
+
+    The run code is read from the file's stem, else from its folder's name (``pendtrack batch``
+    writes ``DIR/06na5/kinematics.parquet``); a record without one is named by its stem (or
+    ``folder/stem`` where stems repeat).
+
+    Raises
+    ------
+    FitError
+        Two records with the same run id.
+    """
+    ids, labels = [], []
+    stems = [p.stem for p in paths]
+    for p in paths:
+        for name in (p.stem, p.parent.name):
+            try:
+                code = parse_run_code(name)
+            except RunCodeError:
+                continue
+            ids.append(code.run_id)
+            labels.append({"tile": f"{code.tile_cm:02d}", "launched": "l" if code.launched else "n",
+                           "alley": "a" if code.alley else "n"})
+            break
+        else:
+            ids.append(p.stem if stems.count(p.stem) == 1 else f"{p.parent.name}/{p.stem}")
+            labels.append({})
+    for i, run in enumerate(ids):
+        if ids.index(run) != i:
+            raise FitError(f"two records are run '{run}' ({paths[ids.index(run)]} and {paths[i]})", path=paths[i])
+    return ids, labels
 
 @dataclass(frozen=True)
 class PlannedRun:

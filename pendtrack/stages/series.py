@@ -1,12 +1,11 @@
-"""`fit` over several records: one model fitted jointly to a series of runs -> fit_<model>.json, fit.json.
+"""`fit` over several records: models fitted jointly to a series of runs -> fit_<model>.json, fit.json.
 
 The stage reads every record as the fit stage does (:func:`pendtrack.stages.kinematics.kinematics_input`:
 kinematics.parquet or any angle record, differentiated with ``[kinematics]``), names each run by
-its run code (:mod:`pendtrack.batch.runcode`: the file's stem, else its folder's name, as
-``pendtrack batch`` writes ``DIR/06na5/kinematics.parquet``), and calls
-:func:`pendtrack.fitting.joint.fit_joint` per model. Each run keeps its own filter and its own
-``theta_off`` (the offset term is fitted when any run's zero of theta was not measured,
-:func:`pendtrack.fitting.models_fit.fits_offset`).
+its run code (:func:`pendtrack.batch.runcode.run_names`: the file's stem, else its folder's name, as
+``pendtrack batch`` writes ``DIR/06na5/kinematics.parquet``), calls
+:func:`pendtrack.fitting.joint.fit_joint_models` (every decision is made there: the offset term,
+the fits, the selection; ``pt.fit([...])`` and ``batch --joint`` come here too) and writes what it returns.
 
 Files: ``fit_<model>.json`` per model (:mod:`pendtrack.fitting.joint.outcome`: the issue's keys over
 the runs pooled, the shared values, the groups, each run's values and residual), ``fit.json``
@@ -22,17 +21,16 @@ import json
 import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
 from pendtrack.artifacts import FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, write_artifact, write_json_artifact
-from pendtrack.batch.runcode import RunCodeError, parse_run_code
+from pendtrack.batch.runcode import run_names
 from pendtrack.config import Config
 from pendtrack.errors import FitError
-from pendtrack.fitting.joint import JointFit, fit_joint, joint_curves, resolve_scopes
+from pendtrack.fitting.joint import fit_joint_models, resolve_scopes
 from pendtrack.fitting.leastsq.samples import Record
-from pendtrack.fitting.models_fit import check_models, fits_offset, model_json_name, observation_from
+from pendtrack.fitting.models_fit import check_models, model_json_name, observation_from
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.stages.fit import COMBINED, CONTAINER_KEYS, fit_sections
 from pendtrack.stages.kinematics import kinematics_input
@@ -41,38 +39,6 @@ from pendtrack.tables import TableSpec
 log = logging.getLogger(__name__)
 
 CURVES = SCHEMAS["joint_fit"].filename  # fit_runs.parquet
-
-
-def run_names(paths: Sequence[Path]) -> tuple[list[str], list[dict[str, str]]]:
-    """Each record's run id and run-code labels (``tile``, ``launched``, ``alley``; empty without a code).
-
-    The run code is read from the file's stem, else from its folder's name; a record without one
-    is named by its stem (or ``folder/stem`` where stems repeat).
-
-    Raises
-    ------
-    FitError
-        Two records with the same run id.
-    """
-    ids, labels = [], []
-    stems = [p.stem for p in paths]
-    for p in paths:
-        for name in (p.stem, p.parent.name):
-            try:
-                code = parse_run_code(name)
-            except RunCodeError:
-                continue
-            ids.append(code.run_id)
-            labels.append({"tile": f"{code.tile_cm:02d}", "launched": "l" if code.launched else "n",
-                           "alley": "a" if code.alley else "n"})
-            break
-        else:
-            ids.append(p.stem if stems.count(p.stem) == 1 else f"{p.parent.name}/{p.stem}")
-            labels.append({})
-    for i, run in enumerate(ids):
-        if ids.index(run) != i:
-            raise FitError(f"two records are run '{run}' ({paths[ids.index(run)]} and {paths[i]})", path=paths[i])
-    return ids, labels
 
 
 def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, config: Config,
@@ -135,7 +101,7 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
         record = json.loads((out_dir / COMBINED).read_text(encoding="utf-8"))
         return StageOutput(out_paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
 
-    records, zeros = {}, []
+    records, zeros = {}, {}
     for run, (art, _) in zip(runs, read):
         df, prov = art.data, art.provenance
         t = df["t"].to_numpy(float)
@@ -143,66 +109,16 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
         records[run] = Record(t, df["theta"].to_numpy(float), df["omega"].to_numpy(float),
                               alpha=df["alpha"].to_numpy(float), ok=df["ok"].to_numpy(bool), observation=obs,
                               source=str(art.path))
-        zeros.append(str((prov.extra or {}).get("zero_reference") or "unknown"))
-    offset = any(fits_offset(config.fit.offset, z) for z in zeros)
-    fits = fit_series(model_objs, records, offset=offset, sharing=sharing, labels=dict(zip(runs, labels)),
-                      config=config)
-    payloads, facts = series_payloads(fits, runs=runs)
-    curves = joint_curves(fits, {r: (rec.t, rec.theta) for r, rec in records.items()})
-    prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=facts)
-    write_artifact(pd.DataFrame(curves), out_dir / CURVES, "joint_fit", provenance=prov)
-    for name, payload in payloads.items():
-        if name != COMBINED:
-            write_json_artifact(payload, out_dir / name, required=FIT_JSON_KEYS, provenance=prov)
-    required = FIT_JSON_KEYS if len(fits) == 1 else CONTAINER_KEYS
-    write_json_artifact(payloads[COMBINED], out_dir / COMBINED, required=required, provenance=prov)
-    return StageOutput(out_paths, facts=facts)
-
-
-def fit_series(model_objs: Mapping[str, Any], records: Mapping[str, Record], *, offset: bool,
-               sharing: Mapping[str, str] | None, labels: Mapping[str, Mapping[str, str]],
-               config: Config) -> dict[str, JointFit]:
-    """:func:`~pendtrack.fitting.joint.fit_joint` of each model (with the offset term if ``offset``)."""
-    from pendtrack.fitting.leastsq.ladder import search_pool
-    from pendtrack.models import compose
-
-    fits = {}
-    workers = search_pool(config.fit.workers)
-    try:
-        for name, model in model_objs.items():
-            if offset and "offset" not in model.terms:
-                model = compose(model, ["offset"])
-            fits[name] = fit_joint(model, records, sharing=sharing, labels=labels, options=config.fit,
-                                   model_options=config.models, pool=workers)
-    finally:
-        if workers is not None:
-            workers.shutdown(wait=True, cancel_futures=True)
-    return fits
-
-
-def series_payloads(fits: Mapping[str, JointFit], *, runs: Sequence[str]) -> tuple[dict[str, dict[str, Any]],
-                                                                                  dict[str, Any]]:
-    """fit_<model>.json of each model and fit.json (key ``fit.json``), and the stage's facts."""
-    records = {n: {**f.to_dict(), "model": n, "fitted_model": f.model} for n, f in fits.items()}
-    files = {n: model_json_name(n) for n in fits}
-    converged = [n for n, f in fits.items() if f.converged]
-    selected = min(converged, key=lambda n: fits[n].bic) if converged else None
-    payloads = {files[n]: records[n] for n in fits}
-    if len(fits) == 1:
-        payloads[COMBINED] = next(iter(records.values()))
-    else:
-        payloads[COMBINED] = {"models": records, "files": files, "selected": selected,
-                              "selected_by": "lowest bic among converged joint fits (same records and cost)",
-                              "all_converged": len(converged) == len(fits)}
-    facts = {"joint": True, "runs": list(runs), "files": files, "selected": selected,
-             "not_converged": [n for n, f in fits.items() if not f.converged],
-             "flagged": {n: dict(f.flags) for n, f in fits.items() if f.flags},
-             "models": {n: {"converged": f.converged, "trustworthy": f.trustworthy, "flags": dict(f.flags),
-                            "xi2_min": f.xi2_min, "rms": f.rms, "bic": f.bic, "runtime_s": f.runtime_s,
-                            "fitted_model": f.model, "message": f.message,
-                            "shared": {k: [v.value, v.stderr] for k, v in f.shared.items()}}
-                        for n, f in fits.items()}}
-    return payloads, facts
+        zeros[run] = (prov.extra or {}).get("zero_reference")
+    fits = fit_joint_models(names, records, zeros=zeros, sharing=sharing, labels=dict(zip(runs, labels)),
+                            options=config.fit, model_options=config.models, source=paths[0])
+    prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=fits.facts)
+    write_artifact(pd.DataFrame(fits.curves), out_dir / CURVES, "joint_fit", provenance=prov)
+    for name, record in fits.records.items():
+        write_json_artifact(record, out_dir / fits.files[name], required=FIT_JSON_KEYS, provenance=prov)
+    required = FIT_JSON_KEYS if len(fits.records) == 1 else CONTAINER_KEYS
+    write_json_artifact(fits.combined, out_dir / COMBINED, required=required, provenance=prov)
+    return StageOutput(out_paths, facts=fits.facts)
 
 
 JOINT_DIR = "joint"  # `batch --joint`: the joint fit's folder inside the batch's
