@@ -135,13 +135,11 @@ def check_models(names: Sequence[str], *, source: object = None) -> dict[str, An
 
 
 @dataclass(frozen=True)
-class ModelFits:
-    """The fits of several models to one record, and what the fit stage writes of them.
+class FitFiles:
+    """What a fit stage writes of its fits (a single record's, :class:`ModelFits`, or a joint fit's).
 
     Attributes
     ----------
-    results : mapping
-        Model name (as asked) -> :class:`~pendtrack.fitting.result.FitResult`, in the order fitted.
     records : mapping
         Model name -> the content of ``fit_<model>.json`` (without provenance).
     files : mapping
@@ -149,13 +147,12 @@ class ModelFits:
     combined : dict
         fit.json's content: one model's record, or the container of several.
     curves : dict of arrays
-        fit.parquet's columns: t, theta, theta_model, omega_model, residual, model (models stacked).
+        The curves' columns: t, theta, theta_model, omega_model, residual, model (models stacked;
+        a joint fit's with run).
     facts : dict
-        The stage's facts (its provenance's ``extra``): models, not_converged, flagged, selected,
-        files, observation, zero_reference, zero_sigma_rad.
+        The stage's facts (its provenance's ``extra``); ``selected`` among them.
     """
 
-    results: Mapping[str, FitResult]
     records: Mapping[str, dict[str, Any]]
     files: Mapping[str, str]
     combined: dict[str, Any]
@@ -165,6 +162,22 @@ class ModelFits:
     @property
     def selected(self) -> str | None:
         return self.facts["selected"]
+
+
+@dataclass(frozen=True)
+class ModelFits(FitFiles):
+    """The fits of several models to one record, and what the fit stage writes of them (:class:`FitFiles`).
+
+    Attributes
+    ----------
+    results : mapping
+        Model name (as asked) -> :class:`~pendtrack.fitting.result.FitResult`, in the order fitted.
+
+    ``curves`` are fit.parquet's columns; ``facts``: models, not_converged, flagged, selected,
+    files, observation, zero_reference, zero_sigma_rad.
+    """
+
+    results: Mapping[str, FitResult]
 
 
 def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *,

@@ -48,7 +48,7 @@ import pandas as pd
 
 from pendtrack.artifacts import FIT_JSON_KEYS, SCHEMAS, Artifact, Provenance, inputs_for, write_artifact, write_json_artifact
 from pendtrack.config import Config
-from pendtrack.fitting.models_fit import ModelFits, check_models, fit_models, fit_problems, model_json_name
+from pendtrack.fitting.models_fit import FitFiles, ModelFits, check_models, fit_models, fit_problems, model_json_name
 from pendtrack.progress import progress_bar
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.stages.kinematics import kinematics_input
@@ -156,14 +156,18 @@ def fit_sections(config: Config, input_sections: dict[str, Any], names: tuple[st
     return sections
 
 
-def write_fits(fits: ModelFits, out_dir: Path, prov: Provenance) -> None:
-    """Write what :func:`~pendtrack.fitting.models_fit.fit_models` returned: fit.parquet, fit_<model>.json, fit.json.
+def write_fits(fits: FitFiles, out_dir: Path, prov: Provenance, *, schema: str = "fit",
+               remove_stale: bool = True) -> None:
+    """Write what a fit's core returned: its curves, fit_<model>.json, fit.json.
 
-    Fit files of models that an earlier run of this stage wrote and this one does not are removed.
+    The curves go to ``schema``'s file (fit.parquet; a joint fit's fit_runs.parquet,
+    :func:`~pendtrack.fitting.joint.fit_joint_models`). With ``remove_stale``, fit files of models
+    that an earlier run of this stage wrote and this one does not are removed.
     """
-    write_artifact(pd.DataFrame(fits.curves), out_dir / PARQUET, "fit", provenance=prov)
+    write_artifact(pd.DataFrame(fits.curves), out_dir / SCHEMAS[schema].filename, schema, provenance=prov)
     for name, rec in fits.records.items():
         write_json_artifact(rec, out_dir / fits.files[name], required=FIT_JSON_KEYS, provenance=prov)
     required = FIT_JSON_KEYS if len(fits.records) == 1 else CONTAINER_KEYS
     write_json_artifact(fits.combined, out_dir / COMBINED, required=required, provenance=prov)
-    _remove_stale(out_dir, set(fits.files.values()))
+    if remove_stale:
+        _remove_stale(out_dir, set(fits.files.values()))

@@ -22,9 +22,7 @@ import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-import pandas as pd
-
-from pendtrack.artifacts import FIT_JSON_KEYS, SCHEMAS, Provenance, inputs_for, write_artifact, write_json_artifact
+from pendtrack.artifacts import SCHEMAS, Provenance, inputs_for
 from pendtrack.batch.runcode import run_names
 from pendtrack.config import Config
 from pendtrack.errors import FitError
@@ -32,7 +30,7 @@ from pendtrack.fitting.joint import fit_joint_models, resolve_scopes
 from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.models_fit import check_models, model_json_name, observation_from
 from pendtrack.stages import StageOutput, up_to_date
-from pendtrack.stages.fit import COMBINED, CONTAINER_KEYS, fit_sections
+from pendtrack.stages.fit import COMBINED, fit_sections, write_fits
 from pendtrack.stages.kinematics import kinematics_input
 from pendtrack.tables import TableSpec
 
@@ -112,12 +110,8 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
         zeros[run] = (prov.extra or {}).get("zero_reference")
     fits = fit_joint_models(names, records, zeros=zeros, sharing=sharing, labels=dict(zip(runs, labels)),
                             options=config.fit, model_options=config.models, source=paths[0])
-    prov = Provenance(stage="fit", config=sections, inputs=inputs, extra=fits.facts)
-    write_artifact(pd.DataFrame(fits.curves), out_dir / CURVES, "joint_fit", provenance=prov)
-    for name, record in fits.records.items():
-        write_json_artifact(record, out_dir / fits.files[name], required=FIT_JSON_KEYS, provenance=prov)
-    required = FIT_JSON_KEYS if len(fits.records) == 1 else CONTAINER_KEYS
-    write_json_artifact(fits.combined, out_dir / COMBINED, required=required, provenance=prov)
+    write_fits(fits, out_dir, Provenance(stage="fit", config=sections, inputs=inputs, extra=fits.facts),
+               schema="joint_fit", remove_stale=False)
     return StageOutput(out_paths, facts=fits.facts)
 
 

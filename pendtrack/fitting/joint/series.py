@@ -16,54 +16,36 @@ curves of fit_runs.parquet and the stage's facts. The decisions made here:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
-
-import numpy as np
 
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.fitting.joint.curves import joint_curves
 from pendtrack.fitting.joint.outcome import JointFit
 from pendtrack.fitting.joint.solve import fit_joint
 from pendtrack.fitting.leastsq.samples import Record
-from pendtrack.fitting.models_fit import check_models, fits_offset, model_json_name
+from pendtrack.fitting.models_fit import FitFiles, check_models, fits_offset, model_json_name
 
 #: How fit.json's container of joint fits chooses its ``selected`` model.
 SELECTED_BY = "lowest bic among converged joint fits (same records and cost)"
 
 
 @dataclass(frozen=True)
-class JointModelFits:
-    """The joint fits of several models to a series of runs, and what the stage writes of them.
+class JointModelFits(FitFiles):
+    """The joint fits of several models to a series of runs, and what the stage writes of them (:class:`FitFiles`).
 
     Attributes
     ----------
     fits : mapping
         Model name (as asked) -> its :class:`~pendtrack.fitting.joint.outcome.JointFit`, in the order fitted.
-    records : mapping
-        Model name -> the content of ``fit_<model>.json`` (without provenance).
-    files : mapping
-        Model name -> its file name (:func:`~pendtrack.fitting.models_fit.model_json_name`).
-    combined : dict
-        fit.json's content: one model's record, or ``{"models", "files", "selected",
-        "selected_by", "all_converged"}``.
-    curves : dict of arrays
-        fit_runs.parquet's columns (:func:`~pendtrack.fitting.joint.joint_curves`).
-    facts : dict
-        The stage's facts (its provenance's ``extra``): joint, runs, files, selected,
-        not_converged, flagged, models.
+
+    ``combined`` is one model's record or ``{"models", "files", "selected", "selected_by",
+    "all_converged"}``; ``curves`` are fit_runs.parquet's columns
+    (:func:`~pendtrack.fitting.joint.joint_curves`); ``facts``: joint, runs, files, selected,
+    not_converged, flagged, models.
     """
 
     fits: Mapping[str, JointFit]
-    records: Mapping[str, dict[str, Any]]
-    files: Mapping[str, str]
-    combined: dict[str, Any]
-    curves: dict[str, np.ndarray] = field(repr=False)
-    facts: dict[str, Any]
-
-    @property
-    def selected(self) -> str | None:
-        return self.facts["selected"]
 
 
 def fit_joint_models(models: Sequence[str], records: Mapping[str, Record], *, zeros: Mapping[str, str | None],
