@@ -22,7 +22,7 @@ import logging
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from pendtrack.artifacts import SCHEMAS, Provenance, inputs_for
+from pendtrack.artifacts import SCHEMAS, Provenance, file_sha256
 from pendtrack.batch.runcode import run_names
 from pendtrack.config import Config
 from pendtrack.errors import FitError
@@ -92,7 +92,9 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
     read = [kinematics_input(p, config=config, table=table) for p in paths]
     sections = {**fit_sections(config, {}, names), "runs": {r: s for r, (_, s) in zip(runs, read)},
                 "sharing": dict(sharing or {})}
-    inputs = inputs_for(*paths)
+    # keyed by run: every run's file is typically kinematics.parquet, and keyed by file name the
+    # last run's hash would hide the others' (a changed earlier run would leave the fit "up to date")
+    inputs = {run: file_sha256(p) for run, p in zip(runs, paths)}
     out_paths = (out_dir / COMBINED, *(out_dir / model_json_name(n) for n in names), out_dir / CURVES)
     if (up_to_date(out_paths[:-1], "fit", inputs=inputs, config=sections, force=force)
             and up_to_date(out_paths[-1:], "joint_fit", inputs=inputs, config=sections, force=force)):

@@ -119,6 +119,14 @@ def test_joint_fit_recovers_the_shared_and_the_per_tile_values(joint):
         assert own["n"] > 0 and own["rms"] < 0.01 and own["xi2"] > 0
 
 
+def test_provenance_hashes_every_run(joint, runs):
+    """Every run's record is an input, by run id: all four files are named kinematics.parquet."""
+    from pendtrack.artifacts import file_sha256
+
+    _, rec, _ = joint
+    assert rec["provenance"]["inputs"] == {run: file_sha256(path) for run, path in zip(RUNS, runs)}
+
+
 def test_shared_standard_error_beats_the_single_runs(joint):
     _, rec, _ = joint
     c0 = rec["params"]["C0"]["stderr"]
