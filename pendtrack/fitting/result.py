@@ -564,7 +564,8 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
     t_end = float(problem.t[-1])
     flags, findings = split_findings(
         tuple(getattr(model, "physical_terms", ())), names, x, unc.stderr, problem.lower,
-        plausibility_flags(names, x, unc.stderr, problem.lower, problem.upper, t_start=problem.t_start, t_end=t_end,
+        plausibility_flags(names, x, unc.stderr_judged, problem.lower, problem.upper, t_start=problem.t_start,
+                           t_end=t_end,
                            floors=floors, nuisance=_measurement_params(model)),
         t_start=problem.t_start, t_end=t_end)
     start_costs = found.costs.copy()

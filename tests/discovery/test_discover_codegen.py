@@ -100,9 +100,12 @@ SYNTHETIC = {
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=(
-    "not met yet: with the residual-covariance sandwich, the drifting-Omega0 record's time-varying damping is kept "
-    "under `partial` by the host's code and not by the generic code (both name no cause): a borderline decision "
-    "that must become stable, not a tolerance to loosen"))) if c == "drifting_omega0" else c
+    "not met yet: the single time-varying damping is now flagged alike (C4 not determined by the zero-step "
+    "sandwich), but the pair memory + time-varying damping is kept under `partial` by the host's code (dBIC -77) "
+    "while the generic code's one-start training fit of it lands in another basin (whole-record dBIC +365): memory "
+    "fits on this record reach different minima from one start; 3 starts per candidate make the two agree here but "
+    "part lab1's final memory fit (beta 1.0 against 0.50, BIC 8 apart). A decision that must become stable, not "
+    "a tolerance to loosen"))) if c == "drifting_omega0" else c
     for c in sorted(SYNTHETIC)])
 def test_synthetic_same_decisions_under_generic_and_host_code(tmp_path, caches, case):
     from pendtrack.discovery.synthetic import draw_run

@@ -346,3 +346,23 @@ def test_the_ladders_shorter_windows_integrate_coarser_and_the_start_ends_where_
     cov, _ = hac_covariance(prob.jacobian(a.x, method="fd", central=True), prob.residuals(a.x), prob.n)
     se = np.sqrt(np.diag(cov))
     assert np.all(np.abs(b.x - a.x) < 1e-3 * se), (b.x - a.x) / se
+
+
+def test_the_flags_judge_by_the_zero_step_sandwich_which_a_smooth_fit_shares():
+    # the plausibility flags judge each parameter by the larger of the finite-difference sandwich and the
+    # sensitivity one (Uncertainty.stderr_judged): for a well-determined fit of a smooth model the two
+    # agree, so judging by both does not make a measured parameter look undetermined
+    from pendtrack.fitting.search import Search
+    from pendtrack.fitting.uncertainty import assess
+
+    prob, x = _problem("classic", seconds=20.0, seed=3)
+    best = local_fit(prob, x, (prob.t_end,))
+    assert best.success
+    found = Search(outcomes=[best], xs=best.x[None, :], costs=np.array([best.cost]), best=best)
+    unc = assess(prob, best, found, options=FitConfig(profile=False, bootstrap=0), seed=0, workers=1)
+    assert np.all(unc.stderr_judged >= unc.stderr)
+    sens, _ = hac_covariance(prob.jacobian(best.x, method="sensitivity"), prob.residuals(best.x), prob.n,
+                             lag=unc.hac_lag)
+    np.testing.assert_array_equal(unc.stderr_judged, np.fmax(unc.stderr, np.sqrt(np.diag(sens))))
+    # SMOOTH_RATIO (1.3) is what the 10x-step check allows a smooth fit's sandwich to move; measured <= 1.000001 here
+    assert np.all(unc.stderr_judged <= 1.3 * unc.stderr), unc.stderr_judged / unc.stderr
