@@ -33,10 +33,21 @@ SCALE_AT = 2.5  # [rad]
 SCALE_RELEASE = 2.6  # largest release of an angle-scale run [rad]
 SIZE_CHECKED = ("memory", "time_varying_damping")  # effects redrawn until a standard fit cannot absorb them
 #: Physics outside the catalogue, for controls: no catalogue effect is its cause.
-#: ``drifting_omega0``: the natural frequency drifts linearly in time, as from a string that stretches.
-OUTSIDE = ("drifting_omega0",)
+#:
+#: * ``drifting_omega0``: the natural frequency drifts linearly in time, as from a string that stretches;
+#: * ``weak_drive``: a weak periodic torque off the pendulum's frequency, as from a shaking support;
+#: * ``changing_length``: the length changes linearly in time (wound in or paid out), with the
+#:   Coriolis-like term ``-2 (l'/l) dtheta/dt`` a varying length brings besides the frequency change.
+OUTSIDE = ("drifting_omega0", "weak_drive", "changing_length")
 OMEGA0_DRIFT = (-0.0048, -0.0024)  # relative change of Omega0 over DRIFT_SPAN_S: -0.24 to -0.48 % [1]
 DRIFT_SPAN_S = 60.0  # [s]
+# the drive's torque as the angle it would hold statically, A in Omega0^2 A sin(w_d t + phi): 3-6 mrad, whose
+# forced response off resonance (w_d = 1.3-1.7 Omega0: |1 - (w_d/Omega0)^2|^-1 = 0.5-1.5) is 1.5-9 mrad,
+# against 3-5 mrad noise: above it over a record, no visible feature of any one swing (2-4 mrad left a
+# standard fit's residual within 6 % of the noise in 2 of 3 draws)
+DRIVE_MRAD = (3.0, 6.0)  # [mrad]
+DRIVE_RATIO = (1.3, 1.7)  # w_d / Omega0 [1]
+LENGTH_CHANGE = (0.005, 0.01)  # |relative change of the length| over DRIFT_SPAN_S, either sign: 0.5-1 % [1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,18 +155,54 @@ def simulate_run(params: dict[str, float], effect: str | None | tuple[str, ...],
                                                                if k not in physical}}))
     return t, theta + rng.normal(0.0, noise, t.size)
 
-RK4_STEP_S = 1.0 / 240.0  # the drifting run's RK4 step [s]: 25 urad from a 4x finer step on 60 s (noise 2-5 mrad)
+RK4_STEP_S = 1.0 / 240.0  # the outside runs' RK4 step [s]: 25 urad from a 4x finer step on 60 s (noise 2-5 mrad)
 
 
-def simulate_drifting(params: dict[str, float], *, duration: float, theta0: float, noise: float,
-                      rng: np.random.Generator, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
-    """``standard`` whose natural frequency drifts: ``Omega0(t) = Omega0 (1 + drift t / DRIFT_SPAN_S)``.
+def outside_acceleration(outside: str, params: dict[str, float]):
+    """The angular acceleration [rad/s^2] that ``outside`` adds to ``standard``'s, as ``f(t, theta, omega)``.
 
-    Gravity's term ``-Omega0(t)^2 sin theta`` follows the drift (``params["omega0_drift"]``,
-    the relative change over :data:`DRIFT_SPAN_S`); the damping is the standard model's
-    (:func:`pendtrack.models.kernels.accel_free`). Classic RK4 with steps of at most
-    :data:`RK4_STEP_S` (fixed steps: the Coulomb term's switch at every turning point stalls
-    an adaptive integrator), from rest at ``theta0``.
+    ``params`` holds ``Omega0`` [rad/s] and the outside physics' own parameters:
+
+    * ``drifting_omega0``: ``omega0_drift``, the relative change of Omega0 over :data:`DRIFT_SPAN_S`;
+      gravity's term ``-Omega0(t)^2 sin theta`` follows ``Omega0(t) = Omega0 (1 + drift t / span)``.
+    * ``weak_drive``: ``drive_rad`` [rad], ``drive_ratio`` [1], ``drive_phase`` [rad]: the torque
+      ``Omega0^2 drive_rad sin(drive_ratio Omega0 t + drive_phase)``.
+    * ``changing_length``: ``length_change``, the relative change of the length over the span:
+      ``l(t) = l (1 + change t / span)``, so gravity's term scales with ``l / l(t)`` and a term
+      ``-2 (l'/l(t)) omega`` appears (a simple pendulum's angular momentum ``m l^2 omega`` changes
+      only by gravity's torque and the damping).
+    """
+    w0 = float(params["Omega0"])
+    if outside == "drifting_omega0":
+        drift = float(params["omega0_drift"])
+
+        def extra(time: float, th: float, om: float) -> float:
+            w = w0 * (1.0 + drift * time / DRIFT_SPAN_S)
+            return (w0 * w0 - w * w) * math.sin(th)
+        return extra
+    if outside == "weak_drive":
+        amp, wd, phase = float(params["drive_rad"]), float(params["drive_ratio"]) * w0, float(params["drive_phase"])
+
+        def extra(time: float, th: float, om: float) -> float:
+            return w0 * w0 * amp * math.sin(wd * time + phase)
+        return extra
+    if outside == "changing_length":
+        rate = float(params["length_change"]) / DRIFT_SPAN_S  # l'/l at t = 0 [1/s]
+
+        def extra(time: float, th: float, om: float) -> float:
+            grow = 1.0 + rate * time  # l(t) / l
+            return w0 * w0 * (1.0 - 1.0 / grow) * math.sin(th) - 2.0 * (rate / grow) * om
+        return extra
+    raise ValueError(f"physics outside the catalogue is one of {OUTSIDE} (got {outside!r})")
+
+
+def simulate_outside(params: dict[str, float], outside: str, *, duration: float, theta0: float, noise: float,
+                     rng: np.random.Generator, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
+    """``standard`` plus physics outside the catalogue (:func:`outside_acceleration`).
+
+    The damping is the standard model's (:func:`pendtrack.models.kernels.accel_free`). Classic RK4
+    with steps of at most :data:`RK4_STEP_S` (fixed steps: the Coulomb term's switch at every
+    turning point stalls an adaptive integrator), from rest at ``theta0``.
 
     Returns
     -------
@@ -167,14 +214,13 @@ def simulate_drifting(params: dict[str, float], *, duration: float, theta0: floa
 
     model = get_model("standard")
     physical = {k: v for k, v in params.items() if k in model.param_names}
-    w0, drift = physical["Omega0"], float(params["omega0_drift"])
     coeffs = model.pack(physical)  # validated once: the right-hand side is called ~1e5 times
+    extra = outside_acceleration(outside, params)
     t = np.arange(int(round(duration * rate_hz))) / rate_hz
 
     def alpha(time: float, th: float, om: float) -> float:
-        w = w0 * (1.0 + drift * time / DRIFT_SPAN_S)
         sgn = 1.0 if om >= 0.0 else -1.0  # sgn(0) = +1, as the kernels
-        return float(accel_free(th, math.sin(th), om, time, sgn, coeffs)) + (w0 * w0 - w * w) * math.sin(th)
+        return float(accel_free(th, math.sin(th), om, time, sgn, coeffs)) + extra(time, th, om)
 
     sub = max(1, math.ceil(1.0 / (rate_hz * RK4_STEP_S)))
     h = 1.0 / (rate_hz * sub)
@@ -245,7 +291,8 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
     if outside is not None:
         if outside not in OUTSIDE or effects or measurement is not None:
             raise ValueError(f"physics outside the catalogue is one of {OUTSIDE}, alone (got {outside!r})")
-        return _draw_outside(seed, outside, rate_hz=rate_hz, duration=duration, noise=noise)
+        return _draw_outside(seed, outside, rate_hz=rate_hz, duration=duration, noise=noise,
+                             check_size=check_size, max_draws=max_draws)
     for e in effects:
         if e not in HIDDEN_EFFECTS:
             raise ValueError(f"unknown hidden effect {e!r}")
@@ -284,13 +331,32 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
     raise RuntimeError(f"no {effects} run of detectable size in {max_draws} draws (seed {seed})")
 
 
+def _draw_outside_params(rng: np.random.Generator, outside: str) -> dict[str, float]:
+    if outside == "drifting_omega0":
+        return {"omega0_drift": rng.uniform(*OMEGA0_DRIFT)}
+    if outside == "weak_drive":
+        return {"drive_rad": 1e-3 * rng.uniform(*DRIVE_MRAD), "drive_ratio": rng.uniform(*DRIVE_RATIO),
+                "drive_phase": rng.uniform(0.0, 2.0 * math.pi)}
+    sign = 1.0 if rng.uniform() < 0.5 else -1.0  # changing_length: wound in or paid out
+    return {"length_change": sign * rng.uniform(*LENGTH_CHANGE)}
+
+
 def _draw_outside(seed: int, outside: str, *, rate_hz: float, duration: tuple[float, float],
-                  noise: tuple[float, float]) -> SyntheticRun:
-    """A run of ``standard`` with physics outside the catalogue (:data:`OUTSIDE`)."""
+                  noise: tuple[float, float], check_size: bool, max_draws: int) -> SyntheticRun:
+    """A run of ``standard`` with physics outside the catalogue (:data:`OUTSIDE`).
+
+    With ``check_size``, redrawn (parameters and noise) until a standard fit leaves a residual RMS
+    :data:`MIN_EXCESS` times the noise: a control whose physics the data cannot show tests nothing.
+    """
     rng = np.random.default_rng(seed)
     dur = rng.uniform(*duration)
     theta0 = rng.uniform(2.6, 3.0)
     sd = rng.uniform(*noise)
-    params = {**_draw_params(rng, None), "omega0_drift": rng.uniform(*OMEGA0_DRIFT)}
-    t, theta = simulate_drifting(params, duration=dur, theta0=theta0, noise=sd, rng=rng, rate_hz=rate_hz)
-    return SyntheticRun(t, theta, None, params, theta0, sd, rate_hz=rate_hz, outside=outside)
+    for draw in range(1, max_draws + 1):
+        params = {**_draw_params(rng, None), **_draw_outside_params(rng, outside)}
+        t, theta = simulate_outside(params, outside, duration=dur, theta0=theta0, noise=sd, rng=rng,
+                                    rate_hz=rate_hz)
+        excess = standard_excess(t, theta, sd) if check_size else float("nan")
+        if excess >= MIN_EXCESS or not check_size:
+            return SyntheticRun(t, theta, None, params, theta0, sd, excess, draw, rate_hz=rate_hz, outside=outside)
+    raise RuntimeError(f"no {outside} run of detectable size in {max_draws} draws (seed {seed})")

@@ -23,7 +23,7 @@ from pendtrack.report import batch_figures as B
 from pendtrack.report.derive import finite_number
 from pendtrack.report.html import Facts, Markup, Note, Page, Section, Table, fmt, link
 from pendtrack.report.load import BatchData
-from pendtrack.report.run_report import draw
+from pendtrack.report.style import draw
 
 PARAM_COLUMN = re.compile(r"(?P<model>\w+?)__(?P<param>\w+?)__(?P<stat>value|stderr|u_paper)")
 PAPER_PANELS = {  # model -> the paper's figure and its four panels (Omega0 has its own figure)
@@ -137,7 +137,24 @@ def two_cuboid_curve(check: Mapping[str, Any], l1_max_cm: float) -> tuple[tuple[
     return (l1, w), f"two cuboids (eq. consistencycheck): {xt}, {lt}"
 
 
-def _overview(batch: BatchData, runs: pd.DataFrame | None) -> Section:
+def _joint_reports(batch: BatchData, out_dir: Path) -> Table | None:
+    """Links to the reports of the joint fits in the batch folder (``batch --joint``: a subfolder with
+    fit_runs.parquet), or None."""
+    from pendtrack.artifacts import SCHEMAS
+
+    rows = []
+    for curves in sorted(batch.batch_dir.glob(f"*/{SCHEMAS['joint_fit'].filename}")):
+        report = curves.parent / REPORT_NAME
+        if report.is_file():
+            rows.append((curves.parent.name, link(os.path.relpath(report, out_dir).replace(os.sep, "/"),
+                                                  f"{curves.parent.name}/{REPORT_NAME}")))
+    if not rows:
+        return None
+    return Table(("joint fit", "report"), tuple(rows), caption="The runs fitted jointly (shared, per-group and "
+                 "per-run values, each run against the joint model).", text_columns=(0, 1), key="joint-reports")
+
+
+def _overview(batch: BatchData, runs: pd.DataFrame | None, out_dir: Path) -> Section:
     facts: list[tuple[str, str]] = [("folder", str(batch.batch_dir))]
     info = batch.batch or {}
     counts = info.get("counts")
@@ -150,6 +167,9 @@ def _overview(batch: BatchData, runs: pd.DataFrame | None) -> Section:
     if finite_number(info.get("runtime_s")) is not None:
         facts.append(("wall time", f"{finite_number(info['runtime_s']):.0f} s"))
     blocks: list[Any] = [Facts(tuple(facts))]
+    joint = _joint_reports(batch, out_dir)
+    if joint is not None:
+        blocks.append(joint)
     for p in batch.problems:
         blocks.append(Note(f"Could not read: {p}", kind="error"))
     failures = info.get("failures") if isinstance(info.get("failures"), list) else []
@@ -296,12 +316,12 @@ def build_batch_page(batch: BatchData, *, out_dir: Path, provenance: dict[str, A
     if summary is None or summary.empty:
         note = Note("No summary.parquet or summary.csv in this batch folder (run `pendtrack batch`).",
                     kind="missing")
-        sections = [_overview(batch, None), Section("parameters", "Parameters", (note,))]
+        sections = [_overview(batch, None, out_dir), Section("parameters", "Parameters", (note,))]
     else:
         summary = summary.reset_index(drop=True)
         runs = runs_frame(summary)
         cols = param_columns(summary)
-        sections = [_overview(batch, runs), _omega0_section(batch, summary, runs, cols, on_progress)]
+        sections = [_overview(batch, runs, out_dir), _omega0_section(batch, summary, runs, cols, on_progress)]
         ordered = [m for m in PAPER_PANELS if m in cols] + [m for m in cols if m not in PAPER_PANELS]
         sections += [_model_section(m, summary, runs, cols[m], on_progress) for m in ordered]
         if not cols:

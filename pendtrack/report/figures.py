@@ -480,3 +480,46 @@ def nyquist_figure(t: np.ndarray, a_theta: np.ndarray, a_omega: np.ndarray, omeg
     ax.set_title("normalised mechanical energy")
     ax.legend(loc="upper right", fontsize=8, markerscale=5)
     return fig
+
+
+def joint_runs_figure(runs: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]], *, model: str,
+                      ncols: int = 2) -> Figure:
+    """A joint fit run by run: each run's theta(t) with the jointly fitted model, and its residual.
+
+    Parameters
+    ----------
+    runs : mapping
+        Run id -> (t [s], theta [rad], theta_model [rad]), the model simulated from the run's own
+        fitted initial state with the values it takes at the joint optimum (fit_runs.parquet).
+    model : str
+        The model's name (colour, legend).
+    ncols : int
+        Runs per row.
+    """
+    names = list(runs)
+    ncols = max(1, min(ncols, len(names)))
+    nrows = max(1, -(-len(names) // ncols))
+    fig = new_figure(10.0, 3.0 * nrows)
+    outer = fig.add_gridspec(nrows, ncols)
+    color = model_color(model)
+    for k, name in enumerate(names):
+        t, theta, theta_model = (np.asarray(a, float) for a in runs[name])
+        inner = outer[k // ncols, k % ncols].subgridspec(2, 1, height_ratios=(2.0, 1.0), hspace=0.05)
+        ax = tidy(fig.add_subplot(inner[0]))
+        ax.plot(t, theta, ".", color=DATA_COLOR, markersize=1.0, label="data")
+        ax.plot(t, theta_model, color=color, linewidth=0.8, label=f"{model}, joint fit")
+        r = theta - theta_model
+        rms = float(np.sqrt(np.nanmean(r ** 2))) if np.isfinite(r).any() else float("nan")
+        ax.set_title(f"{name}: residual RMS {1e3 * rms:.2f} mrad")
+        ax.tick_params(labelbottom=False)
+        ax.set_ylabel(L_THETA)
+        if k == 0:
+            ax.legend(loc="upper right", fontsize=7, markerscale=5)
+        axr = tidy(fig.add_subplot(inner[1], sharex=ax))
+        axr.plot(t, r, color=color, linewidth=0.5)
+        axr.axhline(0, color="0.4", linewidth=0.6)
+        axr.set_ylabel(r"$\theta-\theta_\mathrm{model}$", fontsize=8)
+        axr.set_xlabel(L_T)
+        if t.size:
+            ax.set_xlim(t.min(), t.max())
+    return fig

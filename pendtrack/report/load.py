@@ -28,7 +28,7 @@ from pendtrack.errors import PendtrackError
 
 log = logging.getLogger(__name__)
 
-RUN_ARTIFACTS = ("track", "angle", "kinematics", "fit")  # Parquet kinds a run folder may hold
+RUN_ARTIFACTS = ("track", "angle", "kinematics", "fit", "joint_fit")  # Parquet kinds a run folder may hold
 FIT_JSON_GLOB = "fit_*.json"
 COMBINED_FIT_JSON = "fit.json"
 DISCOVERY_JSON = "discovery.json"
@@ -46,8 +46,8 @@ class RunData:
     name : str
         Run id (the folder's name, e.g. ``24la1``).
     artifacts : mapping
-        Parquet kind (``track``, ``angle``, ``kinematics``, ``fit``) -> :class:`Artifact`, for those
-        present and valid.
+        Parquet kind (``track``, ``angle``, ``kinematics``, ``fit``; ``joint_fit`` in a joint fit's
+        folder) -> :class:`Artifact`, for those present and valid.
     fits : mapping
         Model name -> that model's fit.json content (FIT_JSON_KEYS plus extras), in file order.
     combined : dict or None

@@ -18,30 +18,16 @@ import numpy as np
 from pendtrack.config import Config
 from pendtrack.report import derive as D
 from pendtrack.report import figures as F
+from pendtrack.report import joint_view as J
 from pendtrack.report import tables as T
 from pendtrack.report.discovery_view import discovery_section
-from pendtrack.report.html import Facts, FigureBlock, Note, Page, Section
+from pendtrack.report.html import Facts, Note, Page, Section
 from pendtrack.report.load import RunData
-from pendtrack.report.style import to_png
+from pendtrack.report.style import draw
 
 log = logging.getLogger(__name__)
 
 Progress = Callable[[int], None]
-
-
-def draw(key: str, caption: str, build: Callable[[], Any], on_progress: Progress | None = None) -> FigureBlock:
-    """Call ``build()`` for a Figure and embed it; an exception becomes the block's error text."""
-    try:
-        fig = build()
-        png = to_png(fig)
-    except Exception as exc:  # a figure must never cost the whole report
-        log.warning("report figure %s failed", key, exc_info=True)
-        block = FigureBlock(key, caption, error=f"{type(exc).__name__}: {exc}")
-    else:
-        block = FigureBlock(key, caption, png=png)
-    if on_progress is not None:
-        on_progress(1)
-    return block
 
 
 def _missing(what: str, needs: str) -> Note:
@@ -147,6 +133,8 @@ def _overview(run: RunData) -> Section:
     lens_text, lens_note = lens_statement(run)
     drift_text, drift_note = drift_statement(run)
     facts: list[tuple[str, str]] = [("run", run.name), ("lens", lens_text), ("folder", str(run.run_dir))]
+    if J.joint_fits(run):  # several runs' fit: no video of its own
+        facts = [("joint fit", run.name), ("folder", str(run.run_dir))]
     if drift_text is not None:
         facts.append(("template drift", drift_text))
     track = run.get("track")
@@ -162,6 +150,7 @@ def _overview(run: RunData) -> Section:
         facts.append(("Ω0 (model-free)", f"{w0.value:.4f}{err} rad/s"))
     if run.fits:
         facts.append(("fitted models", ", ".join(run.fits)))
+        facts += J.joint_facts(run)
         offsets = zero_offsets(run)
         if offsets:
             facts.append(("θ's zero (fitted θ_off)", offsets))
@@ -413,6 +402,8 @@ def _amplitudes(run: RunData, on_progress: Progress | None) -> tuple[Section, Se
 
 def count_figures(run: RunData) -> int:
     """How many figures :func:`build_run_page` will try to draw (for a progress bar)."""
+    if J.joint_fits(run):
+        return J.count_joint_figures(run)
     n = 0
     if run.get("track") is not None:
         n += 2
@@ -438,6 +429,12 @@ def build_run_page(run: RunData, *, config: Config, provenance: dict[str, Any],
     on_progress : callable, optional
         Called with 1 after each figure.
     """
+    if J.joint_fits(run):
+        # a joint fit's folder holds no video, track or kinematics of its own: each run's folder has its report
+        sections = [_overview(run), *J.joint_sections(run, on_progress), discovery_section(run),
+                    T.provenance_section(run, provenance.get("inputs", {}))]
+        return Page(title=f"Joint fit {run.name}", subtitle=f"pendtrack joint-fit report · {run.run_dir}",
+                    sections=tuple(sections), provenance=provenance, kind="run")
     sections = [_overview(run), _tracking(run, on_progress), *_kinematics(run, config, on_progress),
                 *_fits(run, on_progress), *_amplitudes(run, on_progress),
                 T.parameters_section(run), discovery_section(run),

@@ -1,4 +1,5 @@
-"""Shared look of the report's figures: colours, sizes, PNG export. No pyplot, no rcParams.
+"""Shared look of the report's figures: colours, sizes, PNG export, a figure embedded as a page
+block (:func:`draw`). No pyplot, no rcParams.
 
 Every figure is a bare :class:`matplotlib.figure.Figure` attached to an Agg canvas, so that
 drawing never touches matplotlib's global state (safe in threads and in a GUI session).
@@ -7,10 +8,17 @@ drawing never touches matplotlib's global state (safe in threads and in a GUI se
 from __future__ import annotations
 
 import io
+import logging
+from collections.abc import Callable
+from typing import Any
 
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from pendtrack.report.html import FigureBlock
+
+log = logging.getLogger(__name__)
 
 DPI = 100  # [dots/inch] of the embedded PNGs: a 9-inch figure is 900 px wide
 DATA_COLOR = "0.25"  # measured data: dark grey
@@ -64,3 +72,19 @@ def to_png(fig: Figure, *, dpi: int = DPI) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, facecolor="white", metadata={"Software": None})
     return buf.getvalue()
+
+
+def draw(key: str, caption: str, build: Callable[[], Any],
+         on_progress: Callable[[int], None] | None = None) -> FigureBlock:
+    """Call ``build()`` for a Figure and embed it; an exception becomes the block's error text."""
+    try:
+        fig = build()
+        png = to_png(fig)
+    except Exception as exc:  # a figure must never cost the whole report
+        log.warning("report figure %s failed", key, exc_info=True)
+        block = FigureBlock(key, caption, error=f"{type(exc).__name__}: {exc}")
+    else:
+        block = FigureBlock(key, caption, png=png)
+    if on_progress is not None:
+        on_progress(1)
+    return block

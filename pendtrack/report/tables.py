@@ -34,7 +34,7 @@ def number(x: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def _unit(name: str) -> str:
+def unit(name: str) -> str:
     try:
         from pendtrack.models import PARAMS
     except ImportError:  # pragma: no cover - models is part of the package
@@ -43,7 +43,7 @@ def _unit(name: str) -> str:
     return spec.unit if spec is not None else {"theta0": "rad", "omega0": "rad/s"}.get(name, "")
 
 
-def _meaning(name: str) -> str:
+def meaning(name: str) -> str:
     try:
         from pendtrack.models import PARAMS
     except ImportError:  # pragma: no cover
@@ -60,11 +60,11 @@ def _param_rows(entries: Mapping[str, Any]) -> list[tuple[Any, ...]]:
         e = entry if isinstance(entry, Mapping) else {"value": entry}
         value, stderr, u_paper = (number(e.get(k)) for k in ("value", "stderr", "u_paper"))
         u_r = f"{100 * stderr / abs(value):.3g} %" if value and stderr is not None else None
-        rows.append((str(name), _unit(str(name)), value, stderr, u_paper, u_r, _meaning(str(name))))
+        rows.append((str(name), unit(str(name)), value, stderr, u_paper, u_r, meaning(str(name))))
     return rows
 
 
-def _quality_table(run: RunData) -> Table:
+def quality_table(run: RunData) -> Table:
     bics = {m: number(f.get("bic")) for m, f in run.fits.items()}
     finite = [b for b in bics.values() if b is not None]
     best = min(finite) if finite else None
@@ -147,7 +147,7 @@ def parameters_section(run: RunData) -> Section:
     if not run.fits:
         return Section("parameters", title, (Note("No fit results: no fit_*.json or fit.json in this run folder "
                                                   "(run the fit stage).", kind="missing"),))
-    blocks: list[Any] = [_quality_table(run), Note(_UNCERTAINTY_NOTE, trusted=True)]
+    blocks: list[Any] = [quality_table(run), Note(_UNCERTAINTY_NOTE, trusted=True)]
     for name, fit in run.fits.items():
         rows = _param_rows(fit.get("params") or {})
         state = fit.get("initial_state")

@@ -268,3 +268,41 @@ def test_joint_curves_observe_each_runs_own_offset(runs):
         assert np.array_equal(curves["theta"][rows], records[run].theta)
         # without its theta_off a curve would miss by the 30-mrad shift; with it, by the noise
         assert np.sqrt(np.mean(curves["residual"][rows] ** 2)) < 0.01
+
+
+def test_report_of_a_joint_fit_shows_every_scope_and_every_run(joint, tmp_path):
+    # `pendtrack report` on the joint fit's folder: the values by scope, the gain, each run's residual and one
+    # figure of every run's curves (fit_runs.parquet); none of a single run's sections, which need a video
+    import re
+
+    from pendtrack.stages.report import REPORT_NAME
+
+    res, rec, out = joint
+    assert res.exit_code == 0, res.output
+    rep = CliRunner().invoke(cli, ["report", str(out), "-q"])
+    assert rep.exit_code == 0, rep.output
+    page = (out / REPORT_NAME).read_text()
+
+    def rows(key: str) -> list[str]:
+        table = re.search(rf'<table data-table="{key}">.*?</table>', page, re.S)
+        assert table, key
+        return re.findall(r"<tr>(.*?)</tr>", table.group(0).split("<tbody>")[1], re.S)
+
+    # one row per value: C0 shared, Omega0 per tile (2), C1 and C2 per tile and alley (2 each), the initial
+    # state per run (4 x 2)
+    scopes = [re.findall(r"<td[^>]*>(.*?)</td>", r)[2] for r in rows("joint-params-standard")]
+    assert scopes.count("shared by every run") == 1 and scopes.count("per tile") == 2
+    assert scopes.count("per tile and alley") == 4 and scopes.count("per run") == 2 * len(RUNS)
+    assert len(rows("joint-gain-standard")) == len(rec["stderr_ratio"]) == 1
+    assert [re.findall(r"<td[^>]*>(.*?)</td>", r)[0] for r in rows("joint-runs-standard")] == list(RUNS)
+    assert 'data-figure="joint-standard"' in page and "data-figure-error" not in page
+    assert "track.parquet is missing" not in page and "kinematics.parquet is missing" not in page
+    # a batch folder holding the joint fit (`batch --joint`) links its report from the overview
+    import shutil
+
+    batch = tmp_path / "batch"
+    shutil.copytree(out, batch / "joint")
+    (batch / "batch.json").write_text(json.dumps({"counts": {"ok": len(RUNS)}}))
+    assert CliRunner().invoke(cli, ["report", str(batch), "-q"]).exit_code == 0
+    table = re.search(r'<table data-table="joint-reports">.*?</table>', (batch / REPORT_NAME).read_text(), re.S)
+    assert table and 'href="joint/report.html"' in table.group(0)
