@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from html import escape
 from pathlib import Path
@@ -100,15 +100,21 @@ def discovery_from_run(run: Any) -> Discovery | None:
     return Discovery(run.discovery, run.discovery_md or "")
 
 
-def discover(record: pd.DataFrame | str | Path, *, config: Config | str | Path | None = None,
-             out: str | Path | None = None, progress: bool = False, **options: Any) -> Discovery:
+def discover(record: pd.DataFrame | str | Path | Sequence[Any] | Mapping[str, Any], *,
+             config: Config | str | Path | None = None, out: str | Path | None = None, progress: bool = False,
+             shared: Sequence[str] = (), per_run: Sequence[str] = (), per_group: Mapping[str, str] | None = None,
+             **options: Any) -> Discovery:
     """Diagnose the baseline, name the missing physics, extend the model: the `discover` stage.
 
     Parameters
     ----------
     record : DataFrame or path
         A DataFrame of :func:`kinematics`, :func:`angle` or :func:`read_record`, or a path the CLI
-        takes (a table, an artifact, a video).
+        takes (a table, an artifact, a video). Several records (a list of paths or DataFrames, or a
+        mapping run id -> record): discovery across runs of one pendulum
+        (:func:`pendtrack.stages.discover.discover_runs_stage`).
+    shared, per_run, per_group
+        Several records: the scopes over the defaults, as :func:`fit`.
     config : Config, path or None
         As ``--config``.
     out : path, optional
@@ -121,6 +127,15 @@ def discover(record: pd.DataFrame | str | Path, *, config: Config | str | Path |
     from pendtrack.stages.discover import discover_stage
 
     cfg = configure(config, options, DISCOVER, what="pt.discover")
+    if not isinstance(record, (pd.DataFrame, str, Path)):
+        from pendtrack.fitting.joint import sharing_from_lists
+
+        sharing = sharing_from_lists(shared=shared, per_run=per_run, per_group=per_group)
+        return _discover_runs(record, config=cfg, out=out, sharing=sharing, progress=progress)
+    if shared or per_run or per_group:
+        from pendtrack.errors import FitError
+
+        raise FitError("pt.discover: shared, per_run and per_group need several records")
     with workdir(out) as folder:
         if isinstance(record, pd.DataFrame):
             with staged(record, what="pt.discover") as src:
@@ -131,3 +146,18 @@ def discover(record: pd.DataFrame | str | Path, *, config: Config | str | Path |
     if found is None:
         raise ArtifactError("the discover stage wrote no discovery.json", path=folder)
     return found
+
+
+def _discover_runs(records: Sequence[Any] | Mapping[str, Any], *, config: Config, out: str | Path | None,
+                   sharing: Mapping[str, str], progress: bool) -> Discovery:
+    """Discovery across several records (paths or DataFrames; a DataFrame is staged in a folder named by its run id)."""
+    from pendtrack.api.frames import staged_runs
+    from pendtrack.artifacts import read_json_artifact
+    from pendtrack.stages.discover import discover_runs_stage
+
+    with staged_runs(records, what="pt.discover") as paths, workdir(out) as folder:
+        res = discover_runs_stage(paths, out_dir=folder, config=config, sharing=dict(sharing), force=True,
+                                  progress=progress)
+        found = read_json_artifact(res.paths[0], required=())
+        text = res.paths[1].read_text(encoding="utf-8")
+    return Discovery(found, text)

@@ -220,22 +220,11 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
 def _fit_series(records: Sequence[Any] | Mapping[str, Any], names: tuple[str, ...], *, config: Config,
                 out: str | Path | None, sharing: Mapping[str, str]) -> FitSet:
     """The joint fit of several records (paths or DataFrames; a DataFrame is staged in a folder named by its run id)."""
-    import tempfile
-
-    from pendtrack.api.frames import write_frame
+    from pendtrack.api.frames import staged_runs
     from pendtrack.artifacts import read_artifact, read_json_artifact
     from pendtrack.stages.series import CURVES, series_fit_stage
 
-    items = list(records.items()) if isinstance(records, Mapping) else [(None, r) for r in records]
-    with tempfile.TemporaryDirectory(prefix="pendtrack-") as scratch, workdir(out) as folder:
-        paths = []
-        for i, (run, rec) in enumerate(items):
-            if isinstance(rec, pd.DataFrame):
-                sub = Path(scratch) / str(run or f"run{i + 1}")
-                sub.mkdir(parents=True, exist_ok=True)
-                paths.append(write_frame(rec, sub, what="pt.fit"))
-            else:
-                paths.append(Path(rec))
+    with staged_runs(records, what="pt.fit") as paths, workdir(out) as folder:
         res = series_fit_stage(paths, out_dir=folder, config=config, models=names, sharing=sharing, force=True)
         combined = read_json_artifact(res.paths[0], required=())
         curves = read_artifact(folder / CURVES, "joint_fit").data

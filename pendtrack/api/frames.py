@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -87,3 +88,20 @@ def staged(df: pd.DataFrame, *, what: str) -> Iterator[Path]:
     """``df`` written as its artifact (:func:`write_frame`) into a scratch folder, removed on exit."""
     with workdir(None) as folder:
         yield write_frame(df, folder, what=what)
+
+
+@contextlib.contextmanager
+def staged_runs(records: Sequence[Any] | Mapping[str, Any], *, what: str) -> Iterator[list[Path]]:
+    """Several records as paths: a path as given, a DataFrame written as its artifact into a scratch
+    folder named by its run id (the mapping's key, else ``run1``, ``run2``, ...), removed on exit."""
+    items = list(records.items()) if isinstance(records, Mapping) else [(None, r) for r in records]
+    with workdir(None) as scratch:
+        paths = []
+        for i, (run, rec) in enumerate(items):
+            if isinstance(rec, pd.DataFrame):
+                sub = scratch / str(run or f"run{i + 1}")
+                sub.mkdir(parents=True, exist_ok=True)
+                paths.append(write_frame(rec, sub, what=what))
+            else:
+                paths.append(Path(rec))
+        yield paths

@@ -360,3 +360,90 @@ def _draw_outside(seed: int, outside: str, *, rate_hz: float, duration: tuple[fl
         if excess >= MIN_EXCESS or not check_size:
             return SyntheticRun(t, theta, None, params, theta0, sd, excess, draw, rate_hz=rate_hz, outside=outside)
     raise RuntimeError(f"no {outside} run of detectable size in {max_draws} draws (seed {seed})")
+
+
+#: Release angles of a synthetic series [rad]: near the top, mid and low (the issue's example), so that
+#: damping that weakens with time and damping that weakens with amplitude part.
+SERIES_RELEASES = (math.pi - 0.1, 2.2, 1.2)
+STRONG_C2 = (0.02, 0.04)  # a "strong" quadratic drag [1]: 4-20x the standard range's 0.002-0.006
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticSeries:
+    """Several runs of one simulated pendulum, released from different angles.
+
+    Attributes
+    ----------
+    runs : tuple of SyntheticRun
+        One per release, in :data:`SERIES_RELEASES` order (each with its own noise).
+    effects : tuple of str
+        The hidden effects every run carries.
+    params : dict
+        The pendulum's true parameters, shared by every run.
+    strong_drag : bool
+        ``C2`` drawn from :data:`STRONG_C2`.
+    """
+
+    runs: tuple[SyntheticRun, ...]
+    effects: tuple[str, ...]
+    params: dict[str, float]
+    strong_drag: bool = False
+
+
+def draw_series(seed: int, effect: str | None | tuple[str, ...], *, releases: tuple[float, ...] = SERIES_RELEASES,
+                duration: float = 60.0, rate_hz: float = RATE_HZ, noise: tuple[float, float] = (0.002, 0.003),
+                strong_drag: bool = False, check_size: bool = True, max_draws: int = 20) -> SyntheticSeries:
+    """A series of runs of one pendulum carrying ``effect`` (one, a pair, or none), drawn from ``seed``.
+
+    Every run has the same physical parameters (``standard`` + the effects; a time-varying damping's
+    ``t0`` on each run's own clock, the same launch each time) and is released from rest at one of
+    ``releases`` with its own seeded noise.
+
+    Parameters
+    ----------
+    seed : int
+    effect : str, tuple of str or None
+        As :func:`draw_run`.
+    releases : tuple of float
+        Release angles [rad].
+    duration : float
+        Each run's length [s].
+    rate_hz : float
+    noise : (float, float)
+        Range of each run's noise standard deviation [rad].
+    strong_drag : bool
+        ``C2`` from :data:`STRONG_C2`: damping that weakens fast with the amplitude, which one record
+        cannot tell from damping that weakens with time.
+    check_size : bool
+        Memory and time-varying damping redrawn until a standard fit of the first run (the largest
+        swing) leaves a residual :data:`MIN_EXCESS` times its noise, with every effect together and
+        with each alone (the same noise): each must be a hidden effect on its own.
+    max_draws : int
+    """
+    effects = _as_tuple(effect)
+    for e in effects:
+        if e not in HIDDEN_EFFECTS:
+            raise ValueError(f"unknown hidden effect {e!r}")
+    rng = np.random.default_rng([seed, 7])
+    sds = [rng.uniform(*noise) for _ in releases]
+    noise_seeds = [int(rng.integers(0, 2**31 - 1)) for _ in releases]
+    for draw in range(1, max_draws + 1):
+        params = _draw_params(rng, effects)
+        if strong_drag:
+            params["C2"] = rng.uniform(*STRONG_C2)
+
+        def one(i: int, which: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+            return simulate_run(params, which, duration=duration, theta0=releases[i], noise=sds[i],
+                                rng=np.random.default_rng(noise_seeds[i]), rate_hz=rate_hz)
+
+        excess = float("nan")
+        if check_size and any(e in SIZE_CHECKED for e in effects):
+            excess = standard_excess(*one(0, effects), sds[0])
+            if excess < MIN_EXCESS or (len(effects) > 1 and not all(
+                    standard_excess(*one(0, (e,)), sds[0]) >= MIN_EXCESS for e in effects if e in SIZE_CHECKED)):
+                continue
+        runs = tuple(SyntheticRun(*one(i, effects), effects[0] if effects else None, params, releases[i], sds[i],
+                                  excess if i == 0 else float("nan"), draw, effects=effects, rate_hz=rate_hz)
+                     for i in range(len(releases)))
+        return SyntheticSeries(runs=runs, effects=effects, params=params, strong_drag=strong_drag)
+    raise RuntimeError(f"no {effects} series of detectable size in {max_draws} draws (seed {seed})")

@@ -38,3 +38,23 @@ def up_to_date(paths: tuple[Path, ...], kind: str, *, inputs: Mapping[str, str],
     if force:
         return False
     return all(is_up_to_date(p, kind, inputs=inputs, config=config) for p in paths)
+
+
+def several_records(sources: Any, *, what: str) -> list[Path]:
+    """The paths of a stage over several runs: at least two, none given twice.
+
+    Raises
+    ------
+    FitError
+        Fewer than two records (``what`` names the analysis), or one given twice (named).
+    """
+    from pendtrack.errors import FitError
+
+    paths = [Path(s) for s in sources]
+    if len(paths) < 2:
+        raise FitError(f"{what} needs at least two records, got {len(paths)}")
+    seen = [p.resolve() for p in paths]
+    for i, p in enumerate(seen):
+        if seen.index(p) != i:
+            raise FitError("the record is given twice", path=paths[i])
+    return paths

@@ -10,11 +10,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pendtrack.artifacts import DISCOVERY_JSON_KEYS, Provenance, atomic_write, inputs_for, write_json_artifact
+from pendtrack.artifacts import (DISCOVERY_JSON_KEYS, Provenance, atomic_write, file_sha256, inputs_for,
+                                 write_json_artifact)
 from pendtrack.config import Config
 from pendtrack.errors import ArtifactError
 from pendtrack.progress import progress_bar
-from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.stages import StageOutput, several_records, up_to_date
 from pendtrack.stages.kinematics import read_input, table_sections
 from pendtrack.tables import TableSpec, is_video
 
@@ -128,3 +129,95 @@ def discover_stage(source: str | Path, *, out_dir: str | Path, config: Config, b
                         provenance=prov)
     atomic_write(paths[1], lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
     return StageOutput(paths, facts=facts)
+
+
+def discover_runs_stage(sources: list[str | Path], *, out_dir: str | Path, config: Config,
+                        baseline: str | None = None, effects: tuple[str, ...] | None = None,
+                        table: TableSpec | None = None, sharing: dict[str, str] | None = None, force: bool = False,
+                        progress: bool = True) -> StageOutput:
+    """Discovery across several runs of one pendulum (:mod:`pendtrack.discovery.across_runs`).
+
+    Parameters
+    ----------
+    sources : list of path
+        Two or more records (angle or kinematics Parquet, Parquet or text tables), read as
+        :func:`discover_stage` reads one; each run is named by its run code
+        (:func:`pendtrack.batch.runcode.run_names`), whose tile and alley set the default scopes.
+    out_dir : path
+        Output folder: discovery.json and discovery.md.
+    config, baseline, effects, table, force, progress
+        As :func:`discover_stage`.
+    sharing : dict, optional
+        Parameter -> scope (``shared``, ``run``, ``tile+alley``) over the defaults.
+
+    Returns
+    -------
+    StageOutput
+        ``paths``: discovery.json, discovery.md. ``facts``: runs, baseline, effects, partial, scopes,
+        unexplained, runtime.
+
+    Raises
+    ------
+    ArtifactError
+        A missing or unreadable record, or a video (each video goes through ``pendtrack run`` first).
+    ConfigError
+        Unknown baseline or effect.
+    FitError
+        Fewer than two records, one given twice, a record too short, a bad sharing.
+    """
+    from pendtrack.batch.runcode import run_names
+    from pendtrack.discovery import catalogue
+    from pendtrack.discovery.across_runs import discover_runs
+    from pendtrack.discovery.inputs import MIN_SAMPLES, series_from_record
+    from pendtrack.fitting.joint.scopes import resolve_scopes
+    from pendtrack.models import compose
+
+    paths = several_records(sources, what="discovery across runs")
+    out_dir = Path(out_dir)
+    for p in paths:
+        if not p.is_file():
+            raise ArtifactError("file not found", path=p)
+        if is_video(p):
+            raise ArtifactError("discovery across runs reads records: run `pendtrack run` on each video first, "
+                                "then give its angle.parquet", path=p)
+    overrides: dict[str, Any] = {}
+    if baseline is not None:
+        overrides["baseline"] = baseline
+    if effects is not None:
+        overrides["effects"] = tuple(effects)
+    if overrides:
+        config = config.replace("discover", **overrides)
+    dc = config.discover
+    pool = catalogue.candidates(dc.baseline, dc.effects)  # unknown names fail before any work
+    runs, labels = run_names(paths)
+    label_of = dict(zip(runs, labels))
+    widest = compose(dc.baseline, [*(["offset"] if "offset" in dc.measurement else []), *(e.name for e in pool)])
+    resolve_scopes(widest, sharing, labels=label_of)  # a bad sharing fails before any fit
+    recs = [read_input(p, table=table, min_samples=MIN_SAMPLES, purpose="discovery") for p in paths]
+    series = {run: series_from_record(rec) for run, rec in zip(runs, recs)}
+    out_paths = (out_dir / JSON_NAME, out_dir / MD_NAME)
+    inputs = {run: file_sha256(p) for run, p in zip(runs, paths)}  # keyed by run: the files may share a name
+    sections = (config.sections("discover", "kinematics", "models") | {"fit": {"cost": config.fit.cost}}
+                | table_sections(table) | {"sharing": dict(sharing or {})})
+    if up_to_date(out_paths[:1], "discovery", inputs=inputs, config=sections, force=force) and out_paths[1].is_file():
+        import json
+
+        record = json.loads(out_paths[0].read_text(encoding="utf-8"))
+        return StageOutput(out_paths, skipped=True, facts=(record.get("provenance") or {}).get("extra") or {})
+    # an estimate: the baseline, then the catalogue's singles at each step and a scope fit per kept effect
+    total = 1 + len(pool) * max(1, min(dc.max_effects, len(pool))) + dc.max_effects
+    with progress_bar(total, "discover", enabled=progress) as advance:
+        result = discover_runs(series, config=config, labels=label_of, sharing=sharing, on_progress=advance)
+    record = result.to_dict()
+    facts = {"sources": [str(p) for p in paths], "runs": list(result.runs), "baseline": result.baseline,
+             "effects": list(result.effects), "partial": list(result.partial),
+             "scopes": {k: v["scope"] for k, v in result.scopes.items()},
+             "unexplained": {r: list(v) for r, v in result.unexplained.items()},
+             "baseline_rms": result.baseline_fit.rms, "final_rms": result.final_fit.rms,
+             "runtime_s": result.runtime_s}
+    prov = Provenance(stage="discover", config=sections, inputs=inputs, extra=facts)
+    write_json_artifact(record, out_paths[0], required=("kind", "runs", "baseline", "effects", "partial", "scopes",
+                                                        "candidates"), provenance=prov)
+    text = result.summary()
+    atomic_write(out_paths[1], lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return StageOutput(out_paths, facts=facts)

@@ -29,7 +29,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.joint import fit_joint_models, resolve_scopes
 from pendtrack.fitting.leastsq.samples import Record
 from pendtrack.fitting.models_fit import check_models, model_json_name, observation_from
-from pendtrack.stages import StageOutput, up_to_date
+from pendtrack.stages import StageOutput, several_records, up_to_date
 from pendtrack.stages.fit import COMBINED, fit_sections, write_fits
 from pendtrack.stages.kinematics import kinematics_input
 from pendtrack.tables import TableSpec
@@ -76,14 +76,8 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
     ArtifactError, ModelError
         A missing or malformed record, an unknown model.
     """
-    paths = [Path(k) for k in kinematics]
+    paths = several_records(kinematics, what="a joint fit")
     out_dir = Path(out_dir)
-    if len(paths) < 2:
-        raise FitError(f"a joint fit needs at least two records, got {len(paths)}")
-    seen = [p.resolve() for p in paths]
-    for i, p in enumerate(seen):
-        if seen.index(p) != i:
-            raise FitError("the record is given twice", path=paths[i])
     names = tuple(models or config.fit.models)
     model_objs = check_models(names, source=paths[0])
     runs, labels = run_names(paths)

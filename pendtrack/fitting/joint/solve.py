@@ -49,7 +49,9 @@ SPREAD_SE = 2.0  # a random start's half-width is at least this many of the runs
 def fit_joint(model: Any, records: Mapping[str, Record], *, sharing: Mapping[str, str] | None = None,
               labels: Mapping[str, Mapping[str, str]] | None = None, options: FitConfig | None = None,
               model_options: ModelsConfig | None = None, seed: int | None = None, workers: int | None = None,
-              pool: ProcessPool | None = None) -> JointFit:
+              pool: ProcessPool | None = None, initial: Mapping[str, Mapping[str, float]] | None = None,
+              extra_starts: Mapping[str, Sequence[Mapping[str, float]]] | None = None,
+              singles: Mapping[str, FitResult] | None = None) -> JointFit:
     """Fit ``model`` to several runs of one pendulum at once (module docstring).
 
     Parameters
@@ -74,6 +76,13 @@ def fit_joint(model: Any, records: Mapping[str, Record], *, sharing: Mapping[str
         Seed of the start draws and processes (0 = all cores); default the options'.
     pool : ProcessPool, optional
         Worker processes for the runs' own fits, kept by the caller.
+    initial, extra_starts : mapping, optional
+        Run id -> a warm start of that run's own fit (parameters and ``theta0``/``omega0``), and
+        further complete starts of it (:func:`pendtrack.fitting.fit_model`'s ``initial`` and
+        ``extra_starts``): discovery across runs starts a candidate from the current model's fits.
+    singles : mapping, optional
+        Run id -> that run already fitted alone with this model on this record (a
+        :class:`~pendtrack.fitting.result.FitResult`): its own fit is not repeated.
 
     Returns
     -------
@@ -96,12 +105,16 @@ def fit_joint(model: Any, records: Mapping[str, Record], *, sharing: Mapping[str
     labels = {r: dict((labels or {}).get(r) or {}) for r in runs}
     scopes = resolve_scopes(model, sharing, labels=labels)
 
-    singles: dict[str, FitResult] = {}
+    given, singles = singles, {}
     problems = []
     for run in runs:
-        setup = estimate(model, records[run], options=options, model_options=model_options)
-        singles[run] = fit_setup(setup, options=options, model_options=model_options, seed=seed, workers=workers,
-                                 pool=pool)
+        setup = estimate(model, records[run], options=options, model_options=model_options,
+                         initial=(initial or {}).get(run))
+        if given and run in given:
+            singles[run] = given[run]
+        else:
+            singles[run] = fit_setup(setup, options=options, model_options=model_options, seed=seed,
+                                     workers=workers, pool=pool, extra_starts=tuple((extra_starts or {}).get(run, ())))
         problems.append(setup.problem)
     labels_of = [{n: column_label(n, group_of(scopes[n], run, labels[run])) for n in p.names}
                  for run, p in zip(runs, problems)]
