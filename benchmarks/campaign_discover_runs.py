@@ -23,22 +23,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import sys
 import time
 from pathlib import Path
 
 KINDS = {"pair": (("time_varying_damping", "memory"), False), "strong_drag": (("memory",), True)}
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def run_case(kind: str, seed: int, seconds: float) -> dict:
@@ -99,6 +88,8 @@ def main(argv: list[str] | None = None) -> None:
                 fh.write(json.dumps(line) + "\n")
             print(f"{kind:<12} seed {seed}  named {line['effects']}  partial {line['partial']}  "
                   f"{'meets' if verdict(line) else 'misses'}  {line['runtime_s']:.0f} s", flush=True)
+    from bench_run import cpu_model  # this folder's: the CPU named as the other benchmarks name it
+
     summary = {"cpu": cpu_model(), "seconds": args.seconds, "kinds": {}}
     for kind in kinds:
         lines = [done[(kind, args.base_seed + i)] for i in range(args.cases)]
