@@ -103,7 +103,10 @@ def write_swing_video(path: str | Path, *, width: int = 320, height: int = 240, 
     stream.width, stream.height, stream.pix_fmt = width, height, "yuv420p"
     stream.time_base = time_base
     stream.codec_context.time_base = time_base
-    stream.options = {"crf": str(crf), "preset": "veryfast"}
+    # no B-frames, as pendtrack's own writer: with them, x264 on AVX-512 CPUs gives a bitstream that depends
+    # on what the process allocated before (pendtrack.video.writer.X264_PARAMS), so a test's video, and the
+    # track measured on it, changed with the tests that ran before it in the same process
+    stream.options = {"crf": str(crf), "preset": "veryfast", "x264-params": "bframes=0"}
     for i in range(n_frames):
         img = bg.copy()
         if marker == "pink":  # a grey bar from the pivot through the spot
