@@ -456,11 +456,6 @@ class RunsDiscovery:
     thresholds: Mapping[str, float]
     runtime_s: float
 
-    @property
-    def kept(self) -> tuple[str, ...]:
-        """Every effect kept, named as a cause or not."""
-        return self.effects + self.partial
-
     def to_dict(self) -> dict[str, Any]:
         """discovery.json's content across runs."""
         def fit_dict(f: Any) -> dict[str, Any]:
