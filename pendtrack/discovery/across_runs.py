@@ -440,6 +440,8 @@ class RunsDiscovery:
         Run id -> the final model's diagnostics still off there.
     carried : tuple of str
         Measurement terms every model carries per run.
+    thresholds : mapping
+        The rules' thresholds (``delta_bic_max``, ``heldout_z_min``, ``heldout_min_gain``, ``train_fraction``).
     runtime_s : float
     """
 
