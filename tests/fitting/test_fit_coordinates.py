@@ -143,3 +143,44 @@ def test_an_exponent_far_outside_the_data_maps_without_overflow():
     ys[i] = 1e5  # a step in y far outside
     assert np.all(np.isfinite(bound.to_natural(ys)))
     assert np.all(np.isfinite(prob.residuals(bound.to_natural(ys))))
+
+
+def _runs_with_drag(logs):
+    """Stand-ins of runs' problems: only their coordinates (C3 at the reference of p) are read."""
+    from types import SimpleNamespace
+
+    from pendtrack.fitting.leastsq.coordinates import Coordinates
+    return tuple(SimpleNamespace(coordinates=Coordinates(scaled=(("C3", (("p", lg),)),))) for lg in logs)
+
+
+def test_a_joint_drag_steps_at_the_mean_of_its_runs_references():
+    from pendtrack.fitting.joint.stacked import joint_coordinates
+    runs = _runs_with_drag([-0.2, -0.4, -0.9])
+    # C3 and p per group: runs 0 and 1 in group a, run 2 in group b
+    labels = [{"C3": "C3[a]", "p": "p[a]"}, {"C3": "C3[a]", "p": "p[a]"}, {"C3": "C3[b]", "p": "p[b]"}]
+    coords = joint_coordinates(runs, labels)
+    assert coords.scaled == (("C3[a]", (("p[a]", pytest.approx(-0.3)),)), ("C3[b]", (("p[b]", -0.9),)))
+    # a shared p under per-group C3: each amplitude takes its own runs' reference on the one p column
+    shared_p = [{"C3": "C3[a]", "p": "p"}, {"C3": "C3[a]", "p": "p"}, {"C3": "C3[b]", "p": "p"}]
+    assert joint_coordinates(runs, shared_p).scaled[1] == ("C3[b]", (("p", -0.9),))
+    bound = joint_coordinates(runs, shared_p).bind(("C3[a]", "p", "C3[b]"))
+    x = np.array([0.02, 1.5, 0.03])
+    np.testing.assert_allclose(bound.to_natural(bound.to_internal(x)), x, rtol=1e-14)
+    # two amplitudes on one exponent: the chain rule through both (central differences in y)
+    def res(v):
+        return np.array([v[0] * v[1], v[2] * v[1] ** 2, v[0] + 3.0 * v[2]])
+    jac_x = np.array([[x[1], x[0], 0.0], [0.0, 2.0 * x[2] * x[1], x[1] ** 2], [1.0, 0.0, 3.0]])
+    y = bound.to_internal(x)
+    h = 1e-6 * np.maximum(np.abs(y), 1e-3)
+    fd = np.column_stack([(res(bound.to_natural(y + h[k] * np.eye(3)[k])) - res(bound.to_natural(y - h[k] * np.eye(3)[k])))
+                          / (2.0 * h[k]) for k in range(3)])
+    np.testing.assert_allclose(bound.jacobian(jac_x, y), fd, rtol=1e-6, atol=1e-9)
+
+
+def test_a_joint_amplitude_over_exponents_fitted_per_run_keeps_its_own_coordinate():
+    from pendtrack.fitting.joint.stacked import joint_coordinates
+    runs = _runs_with_drag([-0.2, -0.4])
+    per_run_p = [{"C3": "C3", "p": "p[r1]"}, {"C3": "C3", "p": "p[r2]"}]
+    assert joint_coordinates(runs, per_run_p) is None
+    held_c3 = [{"p": "p"}, {"p": "p"}]  # C3 held: not in the fitted labels
+    assert joint_coordinates(runs, held_c3) is None

@@ -119,6 +119,17 @@ def test_joint_fit_recovers_the_shared_and_the_per_tile_values(joint):
         assert own["n"] > 0 and own["rms"] < 0.01 and own["xi2"] > 0
 
 
+def test_the_order_of_the_records_does_not_change_the_fit(joint, runs, tmp_path):
+    # the same records listed in another order: the same fit (the runs are fitted in the order of their ids)
+    _, rec, _ = joint
+    res = CliRunner().invoke(cli, ["fit", *reversed(runs), "--model", "standard", *STARTS, "-q", "--out", str(tmp_path),
+                                   "--config", str(_config_file(tmp_path))])
+    assert res.exit_code == 0, res.output
+    other = read_json_artifact(tmp_path / "fit_standard.json", required=FIT_JSON_KEYS)
+    for key in ("params", "groups", "runs", "xi2_min", "converged", "message", "start_costs", "covariance"):
+        assert other[key] == rec[key], key
+
+
 def test_provenance_hashes_every_run(joint, runs):
     """Every run's record is an input, by run id: all four files are named kinematics.parquet."""
     from pendtrack.artifacts import file_sha256

@@ -23,6 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
+from pendtrack.fitting.leastsq.coordinates import Coordinates
 from pendtrack.fitting.leastsq.cost import Observation
 from pendtrack.fitting.leastsq.problem import FitProblem
 
@@ -51,8 +52,8 @@ class StackedProblem:
     columns: tuple[np.ndarray, ...]
     lower: np.ndarray
     upper: np.ndarray
+    coordinates: Coordinates | None = None  # the steps' coordinates over the joint labels (joint_coordinates)
 
-    coordinates = None  # the local fit steps in the joint vector itself
     t_start = 0.0  # time since each run's first fitted sample [s]
 
     @property
@@ -183,4 +184,40 @@ def stack(runs: tuple[str, ...], problems: tuple[FitProblem, ...],
             cols.append(j)
         columns.append(np.array(cols, dtype=np.int64))
     return StackedProblem(runs=tuple(runs), problems=tuple(problems), names=tuple(names), columns=tuple(columns),
-                          lower=np.array(lower), upper=np.array(upper))
+                          lower=np.array(lower), upper=np.array(upper),
+                          coordinates=joint_coordinates(problems, labels_of))
+
+
+def joint_coordinates(problems: tuple[FitProblem, ...], labels_of: list[dict[str, str]]) -> Coordinates | None:
+    """The decorrelated coordinates of the joint vector, from the runs' own (None: none applies).
+
+    A joint amplitude column (e.g. ``C3`` of one tile and alley) steps in its value at a reference, as a
+    single fit's does (:mod:`pendtrack.fitting.leastsq.coordinates`), when every run using it takes each
+    of its exponents from one joint column (``p`` of that tile and alley, or a shared ``p``); the
+    reference's logarithm is the mean of those runs' own. An amplitude whose exponent is fitted per run
+    where the amplitude is not keeps its own coordinate, and so does the time-varying damping (its ``t0``
+    is per run): only the steps' path changes, never the minimum.
+    """
+    refs: dict[str, dict[str, dict[str, list[float]]]] = {}  # amplitude label -> exponent name -> label -> logs
+    order: list[tuple[str, tuple[str, ...]]] = []
+    for p, labels in zip(problems, labels_of):
+        if p.coordinates is None:
+            continue
+        for amp, exps in p.coordinates.scaled:
+            if amp not in labels:
+                continue
+            entry = refs.setdefault(labels[amp], {})
+            if not entry:
+                order.append((labels[amp], tuple(e for e, _ in exps)))
+            for e, lg in exps:
+                if e in labels:
+                    entry.setdefault(e, {}).setdefault(labels[e], []).append(float(lg))
+    scaled = []
+    for amp, exp_names in order:
+        entry = refs[amp]
+        if any(len(entry.get(e, {})) > 1 for e in exp_names):
+            continue  # an exponent in several columns under one amplitude: no single reference
+        used = tuple((label, float(np.mean(logs))) for e in exp_names for label, logs in entry.get(e, {}).items())
+        if used:
+            scaled.append((amp, used))
+    return Coordinates(scaled=tuple(scaled)) if scaled else None

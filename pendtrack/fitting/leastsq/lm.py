@@ -172,8 +172,11 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
     moved = True  # J or r changed since J^T J and the gradient were formed (a rejected step changes neither)
     for _ in range(max_iterations):
         if moved:  # on a long record J^T J and J^T r cost ~0.15 ms, a tenth of an evaluation
-            jtj = J.T @ J
-            g = np.einsum("ij,i->j", J, r)
+            # far out on a steep term (p near its bound) J^T J can overflow: the step it gives is not finite,
+            # so its trial is rejected like an uphill one, without a warning to the user
+            with np.errstate(over="ignore", invalid="ignore"):
+                jtj = J.T @ J
+                g = np.einsum("ij,i->j", J, r)
             moved = False
         d = np.maximum(d, np.diag(jtj))
         scale = np.sqrt(d)
@@ -187,7 +190,8 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
         v = np.zeros_like(x)
         try:
             sub = np.ix_(free, free)
-            v[free] = np.linalg.solve(jtj[sub] + lam * np.diag(d[free]), -g[free])
+            with np.errstate(over="ignore", invalid="ignore"):
+                v[free] = np.linalg.solve(jtj[sub] + lam * np.diag(d[free]), -g[free])
         except np.linalg.LinAlgError:
             lam *= nu
             nu *= 2.0
