@@ -49,7 +49,8 @@ def _adopt_subset(subset: tuple, current: FitPair, accepted: list[str], order: l
     new, cand, pair = subset
     assert current.full is not None and pair.full is not None
     for gone in [e for e in accepted if e not in new]:
-        judged_all.append(replace(cand, step=0, effect=gone, terms=(gone,), note=(
+        # its values: the fit of the model it was kept in (the candidate's fit has no parameters of it)
+        judged_all.append(replace(cand, step=0, effect=gone, terms=(gone,), train=current.train, full=current.full, note=(
             f"kept, replaced with {'+'.join(e for e in new if e not in accepted)} by {cand.effect} "
             f"(BIC {pair.full.bic - current.full.bic:+.1f}): the model with them in its place is better")))
         accepted.remove(gone)
@@ -288,7 +289,8 @@ class DiscoveryLoop:
         if swap is None:
             return False
         gone, cand, pair, reduced = swap
-        self.judged.append(replace(cand, step=0, effect=gone, terms=(gone,), note=(
+        self.judged.append(replace(cand, step=0, effect=gone, terms=(gone,), train=self.current.train,
+                                   full=self.current.full, note=(
             f"kept first, replaced by {cand.effect} (BIC {pair.full.bic - self.current.full.bic:+.1f}): "
             "the model with it in its place is better")))
         self.steps = [s for s in self.steps if gone not in s.names] + [_step(cand, reduced, pair)]

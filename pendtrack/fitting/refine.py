@@ -85,9 +85,12 @@ def trust_region_polish(problem: FitProblem, best: StartOutcome) -> np.ndarray |
     residuals = problem.residuals
     x0 = np.clip(best.x, problem.lower, problem.upper)
     try:
-        res = least_squares(residuals, x0, bounds=(problem.lower, problem.upper), method="trf",
-                            x_scale="jac", ftol=TRUST_REGION_TOL, xtol=TRUST_REGION_TOL,
-                            max_nfev=TRUST_REGION_NFEV * x0.size)
+        # scipy's bounded trf step warns on a non-finite intermediate (a column of J ~ 0 along a valley) and
+        # rejects the step itself; the warning is numpy's, not the user's business
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            res = least_squares(residuals, x0, bounds=(problem.lower, problem.upper), method="trf",
+                                x_scale="jac", ftol=TRUST_REGION_TOL, xtol=TRUST_REGION_TOL,
+                                max_nfev=TRUST_REGION_NFEV * x0.size)
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return None
     if not (np.isfinite(res.cost) and 2.0 * res.cost < float(best.cost) * (1.0 - TRUST_REGION_GAIN)):
