@@ -306,7 +306,9 @@ def equation_error_estimates(model: Any, t: np.ndarray, theta: np.ndarray, omega
         if cols:
             a = np.column_stack(cols)
             lo = np.array([model.bounds[c][0] for c in coef_names])
-            sol = lsq_linear(a, y, bounds=(lo, np.full(len(coef_names), np.inf)))
+            # a grid point where a term's column is ~0 makes scipy's bounded trf warn on a 0/0 it then discards
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                sol = lsq_linear(a, y, bounds=(lo, np.full(len(coef_names), np.inf)))
             coef = sol.x
             resid = y - a @ coef
         else:
