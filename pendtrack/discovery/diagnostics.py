@@ -31,6 +31,9 @@ NOISE_Z = 3.0  # a diagnostic is "off" when its z-like evidence exceeds this (on
 #: bin of white noise exceeds 20 with p ~ e^-20), and a residual RMS 20 % above the noise level
 #: (the synthetic hidden effects are drawn at least that large).
 OFF_LIMITS = {"harmonic_line": 20.0, "excess_rms": 0.2}
+# relative standard error of a MAD-based sigma times sqrt(n) (normal data: sqrt(1.36) = 1.166; noise_sigma's
+# first differences are correlated, which this ignores)
+MAD_REL_SE = 1.166
 
 
 def off_diagnostics(evidence: dict[str, float] | Any) -> list[str]:
@@ -155,7 +158,7 @@ def _envelope(cyc: CycleFit, sigma: float) -> Envelope:
 
 
 def diagnose(t: np.ndarray, theta: np.ndarray, theta_m: np.ndarray, omega_m: np.ndarray, omega0: float, *,
-             model: str = "", savgol_window_s: float, savgol_order: int = 3, n_replicas: int = 6, seed: int = 0,
+             model: str = "", savgol_window_s: float, savgol_order: int = 3, n_replicas: int = 30, seed: int = 0,
              near_fraction: float = 0.25) -> Diagnosis:
     """Diagnose a fitted model against the data.
 
@@ -206,7 +209,8 @@ def diagnose(t: np.ndarray, theta: np.ndarray, theta_m: np.ndarray, omega_m: np.
     cyc = cycle_fit(t, r, theta_m, omega_m, bounds, sigma=sigma)
     env = _envelope(cyc, sigma)
     freq = frequency_amplitude(turns_d, turns_m, cyc)
-    hyst = hysteresis(t, kin_d, kin_m, replicas, omega0, bounds, near_fraction=near_fraction)
+    hyst = hysteresis(t, kin_d, kin_m, replicas, omega0, bounds, near_fraction=near_fraction,
+                      sigma_rel_se=MAD_REL_SE / math.sqrt(max(r.size - 1, 1)))
 
     rms = float(np.sqrt(np.mean(r * r)))
     n = cyc.n_cycles
