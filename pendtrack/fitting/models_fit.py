@@ -33,7 +33,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.cross_model import cross_model_relations
 from pendtrack.fitting.fitter import fit_model
 from pendtrack.fitting.leastsq.cost import Observation
-from pendtrack.fitting.leastsq.samples import check_record
+from pendtrack.fitting.leastsq.samples import axle_shares, check_record
 from pendtrack.fitting.predict import predict
 from pendtrack.fitting.result import FitResult, ParamEstimate, _num
 
@@ -228,8 +228,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         raise FitError("the kinematics file has no samples", path=source)
     obs = observation_from(provenance_extra, provenance_config, t, source=source)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=source)  # fail before any progress bar
-    scale = provenance_extra.get("theta_scale_rel")  # the axle's radius uncertainty over the radius [1]
-    scale_rel = float(scale) if isinstance(scale, (int, float)) and not isinstance(scale, bool) and scale > 0 else 0.0
+    scale_rel = axle_shares(provenance_extra)["theta_scale_rel"]  # the axle's radius uncertainty over the radius [1]
     results: dict[str, FitResult] = {}
     # the models' searches (and their profile sigmas) share one set of worker processes, started now (their
     # imports and kernels load while the first model's estimates run) rather than one set per model

@@ -317,3 +317,51 @@ def test_report_of_a_joint_fit_shows_every_scope_and_every_run(joint, tmp_path):
     assert CliRunner().invoke(cli, ["report", str(batch), "-q"]).exit_code == 0
     table = re.search(r'<table data-table="joint-reports">.*?</table>', (batch / REPORT_NAME).read_text(), re.S)
     assert table and 'href="joint/report.html"' in table.group(0)
+
+
+def test_axle_shares_move_the_joint_standard_errors_as_a_refit_moves_the_values(runs):
+    # theta's scale and zero are known only as well as each run's axle: one error for every sample of the run,
+    # which the residuals cannot show. The joint covariance carries it as the minimum's first-order shift; the
+    # refit of the rescaled record is the exact shift it stands for.
+    from dataclasses import replace
+
+    from pendtrack.fitting.joint import fit_joint
+    from pendtrack.fitting.leastsq.samples import Record
+    from pendtrack.models import compose
+
+    records = {}
+    for run, path in zip(RUNS, runs):
+        if run in ("03na1", "03na2"):
+            kin = read_artifact(path, "kinematics")
+            df = kin.data
+            obs = observation_from(kin.provenance.extra, kin.provenance.config, df["t"].to_numpy())
+            records[run] = Record(df["t"].to_numpy(), df["theta"].to_numpy(), df["omega"].to_numpy(),
+                                  ok=df["ok"].to_numpy(bool), observation=obs)
+    model = compose(get_model("standard"), ["offset"])
+    options = Config().replace("fit", n_starts=3, workers=1, profile=False, joint_starts=2).fit
+    sharing = {"theta_off": "run"}
+    base = fit_joint(model, records, options=options, sharing=sharing)
+    assert all(v.stderr_scale == 0.0 for v in base.estimates.values())  # no axle uncertainty given: none added
+
+    # a 2e-3 scale uncertainty on one run: big enough that the refit's shift stands far above its convergence
+    # tolerance, small enough for the first order (the shift's second-order part is ~2e-3 of it)
+    scale, zero = 2e-3, 1e-3
+    given = dict(records, **{"03na1": replace(records["03na1"], theta_scale_rel=scale, zero_sigma_rad=zero)})
+    with_axle = fit_joint(model, given, options=options, sharing=sharing)
+    rec = records["03na1"]
+    moved = dict(records, **{"03na1": replace(rec, theta=rec.theta * (1 + scale), omega=rec.omega * (1 + scale))})
+    refit = fit_joint(model, moved, options=options, sharing=sharing)
+    for label, est in with_axle.estimates.items():
+        assert est.value == base.estimates[label].value  # the shares change the errors, never the fit
+        assert est.stderr == pytest.approx(math.hypot(base.estimates[label].stderr, est.stderr_scale), rel=1e-9)
+        if label.startswith("theta_off"):
+            continue
+        shift = abs(refit.estimates[label].value - base.estimates[label].value)
+        # 5 %: the first-order step of a smooth least-squares minimum against the refit's exact shift
+        assert est.stderr_scale == pytest.approx(shift, rel=0.05), label
+    # the zero moves only that run's own theta_off, by the zero's uncertainty itself (with its scale's share)
+    off = with_axle.estimates["theta_off@03na1"]
+    assert off.stderr_scale >= zero and with_axle.estimates["theta_off@03na2"].stderr_scale < 0.1 * zero
+    omega0 = next(k for k in with_axle.estimates if k.startswith("Omega0"))
+    assert with_axle.estimates[omega0].stderr_scale > 0
+    assert with_axle.to_dict()["stderr_axle"][omega0] == pytest.approx(with_axle.estimates[omega0].stderr_scale)

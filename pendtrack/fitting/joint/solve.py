@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -138,9 +139,12 @@ def fit_joint(model: Any, records: Mapping[str, Record], *, sharing: Mapping[str
     xs = np.array([o.x for o in outcomes])
     costs[int(np.argmin(costs))] = best.cost  # the refined best
     u_paper, accepted = paper_uncertainty(xs, costs, options.accept_ratio)
-    cov, lags, se_naive, u_region = joint_covariance(stacked, best, accept_ratio=options.accept_ratio)
+    axle = [(records[r].theta_scale_rel, records[r].zero_sigma_rad) for r in runs]
+    cov, lags, se_naive, u_region, axle_cov = joint_covariance(stacked, best, accept_ratio=options.accept_ratio,
+                                                               axle=axle)
     return build_joint(model, stacked, best, singles=singles, scopes=scopes, labels=labels, covariance=cov,
-                       hac_lags=lags, u_paper=u_paper, stderr_naive=se_naive, u_region=u_region,
+                       axle_covariance=axle_cov, hac_lags=lags, u_paper=u_paper, stderr_naive=se_naive,
+                       u_region=u_region,
                        n_accepted=int(accepted.sum()), start_costs=costs, options=options, seed=seed,
                        runtime_s=time.monotonic() - t_wall)
 
@@ -195,17 +199,29 @@ def joint_starts(stacked: StackedProblem, singles: Sequence[FitResult], *, n_ran
     return inside_bounds(np.array(rows), stacked.lower, stacked.upper)
 
 
-def joint_covariance(stacked: StackedProblem, best: StartOutcome, *,
-                     accept_ratio: float) -> tuple[np.ndarray, list[int], np.ndarray, np.ndarray]:
-    """Sandwich covariance of the joint vector with one Newey-West meat per run (module docstring, step 4).
+def joint_covariance(stacked: StackedProblem, best: StartOutcome, *, accept_ratio: float,
+                     axle: Sequence[tuple[float, float]] | None = None
+                     ) -> tuple[np.ndarray, list[int], np.ndarray, np.ndarray, np.ndarray]:
+    """Covariance of the joint vector: the sandwich with one Newey-West meat per run (module docstring, step 4)
+    plus the share of every run's axle (:func:`axle_covariance`).
+
+    Parameters
+    ----------
+    axle : sequence of (float, float), optional
+        Per run (``stacked.runs`` order), the relative uncertainty of theta's scale [1] and of its
+        zero [rad] (:class:`~pendtrack.fitting.leastsq.samples.Record`'s ``theta_scale_rel``,
+        ``zero_sigma_rad``); None: none.
 
     Returns
     -------
     covariance : ndarray, shape (p, p)
+        The sandwich plus ``axle_covariance``.
     lags : list of int
         Each run's truncation lag of the sandwich's meat [samples].
     stderr_naive, u_region : ndarray
         The textbook standard errors and the 5/4 region's half-widths (comparison only).
+    axle_covariance : ndarray, shape (p, p)
+        The axles' share alone.
     """
     x = best.x
     r = stacked.residuals(x)
@@ -218,4 +234,63 @@ def joint_covariance(stacked: StackedProblem, best: StartOutcome, *,
         meat += m
         lags.append(int(lag))
     cov = sandwich(jac.T @ jac, meat)
-    return cov, lags, stderr_from_cov(naive_covariance(jac, r)), region_halfwidth(jac, best.cost, accept_ratio)
+    axle_cov = axle_covariance(stacked, x, jac, axle or [(0.0, 0.0)] * len(stacked.problems))
+    return (cov + axle_cov, lags, stderr_from_cov(naive_covariance(jac, r)),
+            region_halfwidth(jac, best.cost, accept_ratio), axle_cov)
+
+
+def axle_covariance(stacked: StackedProblem, x: np.ndarray, jac: np.ndarray,
+                    axle: Sequence[tuple[float, float]]) -> np.ndarray:
+    """The joint vector's covariance from the runs' axles, which the residuals cannot show.
+
+    Each run's angle is measured about its own fitted axle, so its error is one number for every
+    sample of the run: a scale (the axle off along the radius) and, for a run whose zero is fitted
+    (``theta_off``), a zero (the axle off sideways). Independent between runs (each video's axle
+    is fitted alone), each moves the joint minimum by the Gauss-Newton step of the data's change,
+    ``dx_i = -(J^T J)^-1 J^T dr_i`` (:func:`pendtrack.fitting.uncertainty.scale_shift`, the single
+    fit's twin), and the covariance is the sum of ``dx_i dx_i^T`` over the runs and both errors.
+    Shared values gather the shifts of every run; a run's own values mostly its own.
+
+    Parameters
+    ----------
+    stacked : StackedProblem
+    x : ndarray
+        The fitted joint vector.
+    jac : ndarray
+        :meth:`StackedProblem.jacobian` at ``x``.
+    axle : sequence of (float, float)
+        Per run, theta's relative scale uncertainty [1] and its zero's [rad].
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        Zero where no run's axle is uncertain; a parameter on a bound gets none (a refit could not
+        leave the bound either).
+    """
+    p = x.size
+    out = np.zeros((p, p))
+    free = (x > stacked.lower) & (x < stacked.upper)
+    if not free.any():
+        return out
+    pinv: np.ndarray | None = None
+    for i, (prob, (scale, zero)) in enumerate(zip(stacked.problems, axle)):
+        changed = []
+        if math.isfinite(scale) and scale > 0:
+            changed.append(replace(prob, theta=prob.theta * (1.0 + scale), omega=prob.omega * (1.0 + scale)))
+        if math.isfinite(zero) and zero > 0 and "theta_off" in prob.names:
+            changed.append(replace(prob, theta=prob.theta + zero))
+        if not changed:
+            continue
+        xi = stacked.run_x(x, i)
+        base = prob.residuals(xi)
+        if pinv is None:
+            if not np.all(np.isfinite(jac[:, free])):
+                return np.full((p, p), np.nan)
+            pinv = np.linalg.pinv(jac[:, free])
+        for moved in changed:
+            dr = np.zeros(jac.shape[0])
+            dr[stacked.rows[i]] = stacked.weights[i] * (moved.residuals(xi) - base)
+            dx = np.zeros(p)
+            dx[free] = -(pinv @ dr)
+            out += np.outer(dx, dx)
+    return out

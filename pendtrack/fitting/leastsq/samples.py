@@ -8,6 +8,7 @@ velocity, optional acceleration and ok flags, the fit window, the filter that ma
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +22,20 @@ from pendtrack.fitting.leastsq.problem import FitProblem, Simulator, parameter_b
 
 GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
 
+
+
+def axle_shares(extra: dict[str, Any]) -> dict[str, float]:
+    """A kinematics file's axle shares as :class:`Record`'s ``theta_scale_rel`` [1] and ``zero_sigma_rad`` [rad].
+
+    ``extra`` is the file's provenance extra; a share it does not hold, or holds as no positive
+    finite number (a given axle, a table), is 0.
+    """
+    out = {}
+    for key in ("theta_scale_rel", "zero_sigma_rad"):
+        v = extra.get(key)
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+        out[key] = float(v) if ok else 0.0
+    return out
 
 @dataclass(frozen=True, eq=False)
 class Record:
@@ -45,6 +60,11 @@ class Record:
         How the data were filtered (the model is filtered alike).
     source : str
         Name of the data in error messages.
+    theta_scale_rel, zero_sigma_rad : float
+        How well the axle the angle was measured about fixes theta's scale [1] and zero [rad]
+        (the angle stage's ``axle_uncertainty``; 0: not known or exact). The residuals cannot show
+        either: every sample carries the same error. The joint fit adds their shares to its
+        covariance; the single fit takes the scale as ``theta_scale_rel``.
     """
 
     t: np.ndarray
@@ -55,6 +75,8 @@ class Record:
     window: tuple[float, float] | None = None
     observation: Observation = field(default_factory=Observation)
     source: str = "the data"
+    theta_scale_rel: float = 0.0
+    zero_sigma_rad: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("t", "theta", "omega"):
