@@ -94,12 +94,27 @@ class SyntheticRun:
     outside: str | None = None
 
 
-def _draw_params(rng: np.random.Generator, effect: str | None | tuple[str, ...]) -> dict[str, float]:
+#: The effect sizes a field trial used (a simulator written outside the project): added mass Ca
+#: 0.018-0.03; time-varying damping C4 1.5-3 with t0 5-10 s before the release; memory G2
+#: 0.003-0.004, beta 0.3-0.7, p_f 1.3-1.8. Narrower than the default draws and, for the
+#: time-varying damping, stronger.
+FIELD_SIZES = {"Ca": (0.018, 0.03), "C4": (1.5, 3.0), "t0": (-10.0, -5.0), "G2": (0.003, 0.004),
+               "beta": (0.3, 0.7), "p_f": (1.3, 1.8)}
+SIZES = ("catalogue", "field")  # draw_run's effect sizes: the default ranges (module docstring), FIELD_SIZES
+
+
+def _draw_params(rng: np.random.Generator, effect: str | None | tuple[str, ...],
+                 sizes: str = "catalogue") -> dict[str, float]:
     p = {"Omega0": rng.uniform(5.0, 6.5), "C1": rng.uniform(0.01, 0.03), "C0": rng.uniform(0.005, 0.02),
          "C2": rng.uniform(0.002, 0.006)}
     for e in _as_tuple(effect):
-        p.update(_draw_effect(rng, e))
+        p.update(_draw_field_effect(rng, e) if sizes == "field" else _draw_effect(rng, e))
     return p
+
+
+def _draw_field_effect(rng: np.random.Generator, effect: str) -> dict[str, float]:
+    names = {"added_mass": ("Ca",), "time_varying_damping": ("C4", "t0"), "memory": ("beta", "p_f", "G2")}
+    return {n: rng.uniform(*FIELD_SIZES[n]) for n in names.get(effect, ())}
 
 
 def _draw_effect(rng: np.random.Generator, effect: str) -> dict[str, float]:
@@ -261,7 +276,8 @@ def standard_excess(t: np.ndarray, theta: np.ndarray, noise: float) -> float:
 def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: bool = True, max_draws: int = 20,
              measurement: str | None = None, rate_hz: float = RATE_HZ,
              duration: tuple[float, float] = (60.0, 90.0),
-             noise: tuple[float, float] = (0.002, 0.004), outside: str | None = None) -> SyntheticRun:
+             noise: tuple[float, float] = (0.002, 0.004), outside: str | None = None,
+             sizes: str = "catalogue") -> SyntheticRun:
     """A synthetic run carrying ``effect`` (one, a pair, or none), drawn from ``seed``.
 
     Parameters
@@ -286,8 +302,13 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
     outside : str, optional
         Physics outside the catalogue (:data:`OUTSIDE`) instead of a hidden effect: a control
         on which no catalogue effect may be named as the cause.
+    sizes : str
+        The hidden effects' sizes (:data:`SIZES`): ``"catalogue"``, the ranges of the module
+        docstring, or ``"field"``, :data:`FIELD_SIZES`.
     """
     effects = _as_tuple(effect)
+    if sizes not in SIZES:
+        raise ValueError(f"sizes is one of {SIZES}, got {sizes!r}")
     if outside is not None:
         if outside not in OUTSIDE or effects or measurement is not None:
             raise ValueError(f"physics outside the catalogue is one of {OUTSIDE}, alone (got {outside!r})")
@@ -308,7 +329,7 @@ def draw_run(seed: int, effect: str | None | tuple[str, ...], *, check_size: boo
         # by 15 % at 2.5 rad stays below 3.03 rad
         theta0 = min(theta0, SCALE_RELEASE)
     for draw in range(1, max_draws + 1):
-        params = {**_draw_params(rng, effects), **artefact}
+        params = {**_draw_params(rng, effects, sizes), **artefact}
         # a pair's noise has its own seed, so that each effect alone can be simulated with the same noise;
         # the other runs draw it from the main stream (the single-effect cases as they always were)
         noise_seed = int(rng.integers(0, 2**31 - 1)) if len(effects) > 1 else None

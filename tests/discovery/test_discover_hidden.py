@@ -272,6 +272,18 @@ def test_pairs_of_effects_at_120hz():
     _check_pairs([_run_case(s, HIDDEN_PAIRS[i % 3], max_effects=2, **PAIR_120HZ) for i, s in enumerate(seeds)])
 
 
+# The same bar at the sizes of a field trial (synthetic.FIELD_SIZES: a simulator written outside the project),
+# on its records: 60-80 s at 120 Hz with 2-3 mrad of noise.
+PAIR_FIELD = {"rate_hz": 120.0, "duration": (60.0, 80.0), "noise": (0.002, 0.003), "sizes": "field"}
+
+
+@pytest.mark.slow
+@CAMPAIGN  # 12 discoveries of 60-80 s at 120 Hz: 20-40 min
+def test_pairs_of_effects_at_field_sizes():
+    seeds = _seeds(24, 6) + _seeds(25, 6)  # 12 cases, every pair 4 times
+    _check_pairs([_run_case(s, HIDDEN_PAIRS[i % 3], max_effects=2, **PAIR_FIELD) for i, s in enumerate(seeds)])
+
+
 @pytest.mark.slow
 @CAMPAIGN
 @pytest.mark.xfail(strict=False, reason="not measured in full; 0 of 3 pair cases at 30 fps")

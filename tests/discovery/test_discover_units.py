@@ -467,3 +467,52 @@ def test_hysteresis_z_of_a_correct_model_is_calibrated():
     z = np.asarray(z)
     assert np.count_nonzero(z > 3.0) <= 1, np.round(np.sort(z)[-5:], 2)
     assert 0.7 <= float(np.sqrt(np.mean(z * z))) <= 1.3
+
+
+def test_field_sizes_draw_each_effect_within_its_range():
+    # the pair campaign at a field trial's sizes draws every effect parameter inside FIELD_SIZES (without the
+    # size check: no fit), and the default draws stay as they were (the suites' seeds keep their records)
+    from pendtrack.discovery.synthetic import FIELD_SIZES, HIDDEN_PAIRS, draw_run
+
+    for seed in range(4):
+        for pair in HIDDEN_PAIRS:
+            run = draw_run(seed, pair, check_size=False, sizes="field", duration=(10.0, 10.0))
+            names = [n for n in FIELD_SIZES if n in run.params]
+            assert len(names) >= 3, run.params  # every pair has at least three effect parameters
+            for n in names:
+                lo, hi = FIELD_SIZES[n]
+                assert lo <= run.params[n] <= hi, (n, run.params[n])
+            default = draw_run(seed, pair, check_size=False, duration=(10.0, 10.0))
+            assert default.params == draw_run(seed, pair, check_size=False, duration=(10.0, 10.0),
+                                              sizes="catalogue").params
+    with pytest.raises(ValueError, match="sizes"):
+        draw_run(0, "memory", sizes="huge")
+
+
+def test_reseated_starts_put_a_kept_memory_back_at_its_plain_shape_with_its_size():
+    # memory kept at beta 0.93, p_f 2.9 (partly an added mass): the added mass's extra start has memory at its plain
+    # shape (beta 0.5, p_f 1.5) with G2 scaled so that memory's share of the acceleration keeps its RMS
+    from pendtrack.discovery.starts import SHAPES, reseated_starts
+    from pendtrack.models import compose, get_model, simulate
+
+    t = np.arange(0, 20.0, 1 / 60)
+    base = {"Omega0": 5.0, "C1": 0.02, "C0": 0.01, "C2": 0.003}
+    sim = simulate(get_model("standard"), base, t, theta0=2.8, omega0=0.0)
+    th, om = sim.theta, sim.omega
+    current = compose("standard", ["memory"])
+    cur = {**base, "G2": 0.03, "beta": 0.93, "p_f": 2.9}
+    start = {**cur, "Ca": 0.01, "theta0": 2.8, "omega0": 0.0}
+    out = reseated_starts(current, cur, ["memory"], start, th, om, t, memory_s=2.0)
+    assert len(out) == len(SHAPES["memory"]) == 1
+    new = out[0]
+    assert (new["beta"], new["p_f"], new["Ca"], new["theta0"]) == (0.5, 1.5, 0.01, 2.8)
+
+    def share(p):
+        return current.accel(p, th, om, t, memory_s=2.0) - current.accel({**p, "G2": 0.0}, th, om, t, memory_s=2.0)
+
+    size = float(np.sqrt(np.mean(share(cur) ** 2)))
+    assert size > 0
+    assert float(np.sqrt(np.mean(share({k: new[k] for k in cur}) ** 2))) == pytest.approx(size, rel=1e-9)
+    # a kept term without a shape (an added mass) has nothing to put back
+    assert reseated_starts(compose("standard", ["added_mass"]), {**base, "Ca": 0.02}, ["added_mass"],
+                           {**base, "Ca": 0.02, "G2": 0.001}, th, om, t, memory_s=2.0) == []

@@ -7,7 +7,7 @@ over all runs pooled, plus::
      "runs"}}}, "runs": {run: {"labels", "params", "initial_state", "columns", "xi2", "rms", "n", "window",
      "flags", "single": {"params", "initial_state", "xi2_min", "rms", "converged"}}}, "stderr_ratio",
      "n_starts", "n_accepted", "start_costs", "hac_lags", "covariance", "cost", "accept_ratio",
-     "stderr_naive", "stderr_axle", "u_region", "message", "flags", "trustworthy", "quote": {label: "stderr" or null}}
+     "stderr_naive", "stderr_axle", "stderr_low", "stderr_high", "u_region", "message", "flags", "trustworthy", "quote": {label: "stderr" or null}}
 
 ``params`` holds the parameters shared by every run; ``groups`` the ones fitted per group of runs
 (per tile, per tile and alley, ...); each run's entry every value it was simulated with (its
@@ -16,7 +16,9 @@ joint optimum, ``rms`` [rad], ``n`` samples) and its own single-run fit for comp
 ``stderr_ratio``: per shared parameter, the joint standard error over the mean of the runs' own.
 Every ``stderr`` includes the runs' axles' share (the angle's scale and zero, which the residuals
 cannot show: :func:`pendtrack.fitting.joint.solve.axle_covariance`), and so does ``covariance``;
-``stderr_axle`` is that share alone.
+``stderr_axle`` is that share alone. ``stderr_low`` and ``stderr_high`` are the profile-likelihood
+sigmas below and above each model parameter (``[fit] profile``; null when not computed), with the
+axles' share.
 """
 
 from __future__ import annotations
@@ -238,6 +240,8 @@ class JointFit:
             "hac_lags": [int(v) for v in self.hac_lags],
             "stderr_naive": {k: _num(v.stderr_naive) for k, v in self.estimates.items()},
             "stderr_axle": {k: _num(v.stderr_scale) for k, v in self.estimates.items()},
+            "stderr_low": {k: _num(v.stderr_low) for k, v in self.estimates.items()},
+            "stderr_high": {k: _num(v.stderr_high) for k, v in self.estimates.items()},
             "u_region": {k: _num(v.u_region) for k, v in self.estimates.items()},
             "covariance": {"names": list(self.estimates), "matrix": [[_num(x) for x in row] for row in cov.tolist()]},
             "message": self.message, "flags": dict(self.flags), "trustworthy": self.trustworthy,
@@ -248,7 +252,8 @@ class JointFit:
 def build_joint(model: Any, stacked: StackedProblem, best: StartOutcome, *, singles: Mapping[str, FitResult],
                 scopes: Mapping[str, Scope], labels: Mapping[str, Mapping[str, str]], covariance: np.ndarray,
                 axle_covariance: np.ndarray | None = None, hac_lags: list[int], u_paper: np.ndarray,
-                stderr_naive: np.ndarray, u_region: np.ndarray,
+                stderr_naive: np.ndarray, u_region: np.ndarray, stderr_low: np.ndarray | None = None,
+                stderr_high: np.ndarray | None = None,
                 n_accepted: int, start_costs: np.ndarray, options: FitConfig, seed: int,
                 runtime_s: float) -> JointFit:
     """The :class:`JointFit` of the refined best joint start (rms, AIC/BIC, verdict, flags)."""
@@ -258,9 +263,13 @@ def build_joint(model: Any, stacked: StackedProblem, best: StartOutcome, *, sing
     se = stderr_from_cov(covariance)
     se_axle = (np.sqrt(np.clip(np.diag(axle_covariance), 0.0, None)) if axle_covariance is not None
                else np.zeros(x.size))
+    nan = np.full(x.size, np.nan)
+    low = nan if stderr_low is None else stderr_low
+    high = nan if stderr_high is None else stderr_high
     estimates = {label: ParamEstimate(value=float(x[j]), stderr=float(se[j]), u_paper=float(u_paper[j]),
                                       u_region=float(u_region[j]), stderr_naive=float(stderr_naive[j]),
-                                      stderr_scale=float(se_axle[j]))
+                                      stderr_scale=float(se_axle[j]), stderr_low=float(low[j]),
+                                      stderr_high=float(high[j]))
                  for j, label in enumerate(stacked.names)}
     runs: dict[str, JointRun] = {}
     flags: dict[str, str] = {}

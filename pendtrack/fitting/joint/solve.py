@@ -32,7 +32,7 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import estimate
 from pendtrack.fitting.fitter import check_options, fit_setup
 from pendtrack.fitting.joint.outcome import JointFit, build_joint
-from pendtrack.fitting.joint.scopes import column_label, group_of, resolve_scopes
+from pendtrack.fitting.joint.scopes import STATE_NAMES, column_label, group_of, resolve_scopes
 from pendtrack.fitting.joint.stacked import StackedProblem, stack
 from pendtrack.fitting.leastsq.local_fits import StartOutcome, inside_bounds, local_fit, run_tasks, window_ladder
 from pendtrack.fitting.leastsq.samples import Record
@@ -142,9 +142,12 @@ def fit_joint(model: Any, records: Mapping[str, Record], *, sharing: Mapping[str
     axle = [(records[r].theta_scale_rel, records[r].zero_sigma_rad) for r in runs]
     cov, lags, se_naive, u_region, axle_cov = joint_covariance(stacked, best, accept_ratio=options.accept_ratio,
                                                                axle=axle)
+    low = high = None
+    if options.profile:
+        low, high = joint_profile_sigmas(stacked, best, cov - axle_cov, se_naive, axle_cov, pool=pool)
     return build_joint(model, stacked, best, singles=singles, scopes=scopes, labels=labels, covariance=cov,
                        axle_covariance=axle_cov, hac_lags=lags, u_paper=u_paper, stderr_naive=se_naive,
-                       u_region=u_region,
+                       u_region=u_region, stderr_low=low, stderr_high=high,
                        n_accepted=int(accepted.sum()), start_costs=costs, options=options, seed=seed,
                        runtime_s=time.monotonic() - t_wall)
 
@@ -237,6 +240,29 @@ def joint_covariance(stacked: StackedProblem, best: StartOutcome, *, accept_rati
     axle_cov = axle_covariance(stacked, x, jac, axle or [(0.0, 0.0)] * len(stacked.problems))
     return (cov + axle_cov, lags, stderr_from_cov(naive_covariance(jac, r)),
             region_halfwidth(jac, best.cost, accept_ratio), axle_cov)
+
+
+def joint_profile_sigmas(stacked: StackedProblem, best: StartOutcome, sandwich: np.ndarray, naive: np.ndarray,
+                         axle_cov: np.ndarray, *, pool: ProcessPool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The profile-likelihood sigmas below and above each joint model parameter (the single fit's ``[fit] profile``).
+
+    :func:`pendtrack.fitting.leastsq.profile.profile_sigmas` on the stacked problem (each inner fit
+    holds one joint column, in every run using it: :meth:`StackedProblem.with_fixed`), from the
+    sandwich alone; the axles' share (:func:`axle_covariance`) is then added in quadrature, as to
+    ``stderr``. The runs' initial states and offsets are not profiled (NaN).
+
+    Returns
+    -------
+    low, high : ndarray
+        In the joint vector's order [parameter units].
+    """
+    from pendtrack.fitting.leastsq.profile import profile_sigmas
+
+    profiled = [label for label in stacked.names if label.split("@", 1)[0] not in (*STATE_NAMES, "theta_off")]
+    low, high = profile_sigmas(stacked, best.x, float(best.cost), sandwich, naive, profiled,  # type: ignore[arg-type]
+                               executor=pool)
+    share = np.sqrt(np.clip(np.diag(axle_cov), 0.0, None))
+    return np.hypot(low, share), np.hypot(high, share)
 
 
 def axle_covariance(stacked: StackedProblem, x: np.ndarray, jac: np.ndarray,

@@ -18,6 +18,7 @@ them, finite differences otherwise): one simulation set per run, never one per j
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -145,6 +146,29 @@ class StackedProblem:
     def rung(self, t_end: float) -> "StackedProblem":
         """The first ``t_end`` seconds of every run, as a rung of the ladder (:meth:`FitProblem.rung`)."""
         return self._windowed([p.rung(p.t_start + t_end) for p in self.problems])
+
+    def with_fixed(self, fixed: Mapping[str, float]) -> "StackedProblem":
+        """The same runs with some joint columns held at given values (by label): the profile's inner fits.
+
+        Every run using a held column holds its own name at that value; the other columns keep
+        their order.
+
+        Raises
+        ------
+        ValueError
+            A label that is no column.
+        """
+        unknown = [k for k in fixed if k not in self.names]
+        if unknown:
+            raise ValueError(f"cannot fix unknown joint parameter {unknown[0]!r}")
+        problems, labels_of = [], []
+        for p, cols in zip(self.problems, self.columns):
+            labels = {n: self.names[j] for n, j in zip(p.names, cols)}
+            own = {n: float(fixed[lab]) for n, lab in labels.items() if lab in fixed}
+            q = p.with_fixed(own) if own else p
+            problems.append(q)
+            labels_of.append({n: labels[n] for n in q.names})
+        return stack(self.runs, tuple(problems), labels_of)
 
     def _windowed(self, problems: list[FitProblem]) -> "StackedProblem":
         if all(a is b for a, b in zip(problems, self.problems)):
