@@ -125,20 +125,23 @@ def reseated_starts(current, cur: Mapping[str, float], accepted: Sequence[str], 
     out = []
     for term in accepted:
         coef = COEFFICIENT.get(term)
-        for shape in SHAPES.get(term, ()):
-            if coef is None or coef not in cur:
-                continue
+        if coef is None or coef not in cur or term not in SHAPES:
+            continue
+        try:  # the term's current share of the acceleration
+            now = current.accel(cur, th, om, t, memory_s=memory_s) - current.accel(
+                {**cur, coef: 0.0}, th, om, t, memory_s=memory_s)
+        except PendtrackError:
+            continue
+        size_now = float(np.sqrt(np.mean(now ** 2)))
+        for shape in SHAPES[term]:
             shape = dict(shape)
             if "t0" in shape:
                 shape["t0"] = float(t[0]) + shape["t0"]
             try:
-                now = current.accel(cur, th, om, t, memory_s=memory_s) - current.accel(
-                    {**cur, coef: 0.0}, th, om, t, memory_s=memory_s)
                 unit = current.accel({**cur, **shape, coef: 1.0}, th, om, t, memory_s=memory_s) - current.accel(
                     {**cur, **shape, coef: 0.0}, th, om, t, memory_s=memory_s)
             except PendtrackError:
                 continue
-            size_now = float(np.sqrt(np.mean(now ** 2)))
             size_unit = float(np.sqrt(np.mean(unit ** 2)))
             if not (size_now > 0 and size_unit > 0 and np.isfinite(size_now / size_unit)):
                 continue
