@@ -33,6 +33,7 @@ import numpy as np
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.discovery.data import AnalysisData
 from pendtrack.discovery.result import FitSummary
+from pendtrack.discovery.starts import COEFFICIENT, TINY
 from pendtrack.parallel import process_pool
 
 log = logging.getLogger(__name__)
@@ -80,6 +81,8 @@ class FitTask:
     # the current model's whole-record fit (values, theta0, omega0): the whole-record fit also starts there,
     # the new terms at their training values, so that its minimum does not hang on the training fit alone
     full_base: dict[str, float] | None = None
+    # training samples of a refit test's fold (interleaved.refit_folds): one start at ``initial``, no ladder
+    fold: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,7 +145,7 @@ def fit_options(task: FitTask, *, full: bool) -> tuple[FitConfig, ModelsConfig]:
 
     fit = FitConfig(cost=task.cost, n_starts=task.n_starts, start_budget=FINAL_ITERATIONS, profile=False,
                     trust_region_polish=True)
-    if full:
+    if full or task.fold is not None:
         fit = replace(fit, n_starts=1, ladder=False)
     elif task.initial:
         fit = replace(fit, start_spread=TRAIN_START_SPREAD)
@@ -158,8 +161,10 @@ def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
     model = _model(task.baseline, task.extra)
     obs = Observation(savgol_window=d.savgol_window, savgol_order=d.savgol_order, smooth_theta=d.smoothed)
     options, model_options = fit_options(task, full=full)
+    fold = None if full else task.fold
     fit = fit_model(model, d.t, d.theta, d.omega, options=options, model_options=model_options, alpha=d.alpha,
-                    window=None if full else d.train_window, observation=obs, initial=task.initial,
+                    ok=fold, window=None if full or fold is not None else d.train_window, observation=obs,
+                    initial=task.initial,
                     fixed=None if full else task.fixed,
                     extra_starts=task.extra_starts, seed=task.seed, workers=task.workers,
                     source=d.source)
@@ -199,9 +204,27 @@ def fit_train(task: FitTask) -> FitPair:
     return FitPair(task.extra, train, None, pred, heldout_rms, nan, nan)
 
 
+def fit_fold(task: FitTask) -> np.ndarray:
+    """Fit ``baseline + extra`` on the samples of ``task.fold`` from ``task.initial`` and simulate it
+    over the whole record: its prediction [rad] (NaN where the fit or the simulation failed)."""
+    from pendtrack.errors import PendtrackError
+
+    try:
+        model, fit = _fit(task, full=False)
+        pred, _ = _simulate(model, FitSummary.from_fit(fit, task.extra), task.data.t, task.memory_s)
+    except (PendtrackError, *_FAILURES):
+        return np.full(task.data.t.size, np.nan)
+    return pred
+
+
 def fit_full(task: FitTask, pair: FitPair) -> FitPair:
-    """Refit a trained model on the whole record: from its training fit, and from ``task.full_base``
-    (the current model's whole-record fit) with the new terms at their training values."""
+    """Refit a trained model on the whole record: from its training fit, from ``task.full_base``
+    (the current model's whole-record fit) with the new terms at their training values, and from
+    that start with each new term's coefficient at :data:`~pendtrack.discovery.starts.TINY` of it:
+    the current whole-record optimum itself (the models are nested), so the extended fit cannot
+    end far above it. Without that start, memory on a drifting-Omega0 control ended its
+    whole-record fit 603 in BIC above the model without it under one code generation and below
+    it under the other, and the two kept different terms."""
     from pendtrack.errors import PendtrackError
 
     if pair.train is None:
@@ -209,7 +232,10 @@ def fit_full(task: FitTask, pair: FitPair) -> FitPair:
     full_task = replace(task, initial=warm_start(pair), extra_starts=())
     if task.full_base is not None:
         train = warm_start(pair)
-        full_task = replace(full_task, extra_starts=({**train, **{k: v for k, v in task.full_base.items() if k in train}},))
+        beside = {**train, **{k: v for k, v in task.full_base.items() if k in train}}
+        new = [COEFFICIENT[e] for e in task.extra if COEFFICIENT.get(e) in train and COEFFICIENT[e] not in task.full_base]
+        nested = {**beside, **{c: TINY * beside[c] for c in new}}
+        full_task = replace(full_task, extra_starts=(beside, nested) if new else (beside,))
     try:
         model, fit = _fit(full_task, full=True)
         full = FitSummary.from_fit(fit, task.extra)

@@ -50,6 +50,10 @@ class Effect:
         What it would explain, in words.
     weights : mapping
         Diagnosis evidence key -> weight of that diagnostic in the effect's signature score.
+    early : bool
+        The effect acts mostly early in the run and fades (time-varying damping: ``C4/(t - t0)``
+        falls 5-8-fold over a minute): a prediction of the later times cannot show it, so it is
+        also judged by refits on interleaved blocks (:func:`pendtrack.discovery.exchange.Context.refit_test`).
     """
 
     name: str
@@ -57,6 +61,7 @@ class Effect:
     physics: str
     signature: str
     weights: Mapping[str, float]
+    early: bool = False
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -82,7 +87,8 @@ class Effect:
 
     def to_dict(self) -> dict[str, object]:
         return {"name": self.name, "title": self.title, "params": list(self.params), "formula": self.formula,
-                "physics": self.physics, "signature": self.signature, "weights": dict(self.weights)}
+                "physics": self.physics, "signature": self.signature, "weights": dict(self.weights),
+                "early": self.early}
 
 
 CATALOGUE: dict[str, Effect] = {
@@ -96,7 +102,7 @@ CATALOGUE: dict[str, Effect] = {
         Effect("time_varying_damping", "time-varying damping",
                "a laminar damping that weakens as the run goes on: -C4 omega/(t - t0) (eq. newDNHM, OPA model)",
                "envelope decays faster early in the run than the baseline allows",
-               {"early_envelope": 1.0, "envelope": 0.5}),
+               {"early_envelope": 1.0, "envelope": 0.5}, early=True),
         Effect("memory", "memory (fractional drag)",
                "a drag that remembers the recent motion: -4 Omega0^2 G2 D^beta(A_omega|A_omega|^(p_f-1)) "
                "(Grunwald-Letnikov derivative of order beta, eq. ourfinalmodel)",

@@ -1,4 +1,9 @@
-"""Interleaved-block cross-validation of a measurement term: a test that is not an extrapolation.
+"""Interleaved-block cross-validation: a test that is not an extrapolation.
+
+Two uses: a measurement term (:func:`interleaved_test`, below) and an effect that acts early in
+the run and fades (:func:`refit_folds`, :func:`refit_test`: the models are refitted on each fold
+by :meth:`pendtrack.discovery.exchange.Context.refit_test`; the first block, the release, is in
+both folds, so each fold's fit starts where the record does).
 
 A measurement term (theta's zero offset, an angle-scale error) shifts every sample of the
 record, early and late alike. Judging it by how a training fit on the first part of the
@@ -27,6 +32,7 @@ no better: a gain below 0 on average, z > 3 with p ~ 0.0014.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,12 +68,54 @@ class FoldTest:
     rms_after: float
     estimates: tuple[float, float]
     prediction: np.ndarray
+    reference: np.ndarray | None = None  # the current model's prediction it is judged against (None: its fit)
+    mask: np.ndarray | None = None  # the samples judged (None: all)
+    name: str = "interleaved"  # the test: "interleaved" (a measurement term) or "refit_folds" (an effect)
 
 
 def folds(n: int, n_blocks: int = N_BLOCKS) -> np.ndarray:
     """Fold (0 or 1) of each of ``n`` samples: blocks of equal length, alternating."""
     block = np.minimum((np.arange(n) * n_blocks) // max(n, 1), n_blocks - 1)
     return (block % 2).astype(np.int8)
+
+
+def refit_folds(n: int, n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Training masks of the two folds of a refit test, and the samples it judges.
+
+    The record is cut into ``n_blocks + 1`` blocks of equal length. The first block is in both
+    training folds and judged in neither: a model refitted on a fold is simulated from the
+    record's start, so each fold must see the release (the initial state and the first
+    oscillations); the other blocks alternate, so each fold spans the run.
+
+    Returns
+    -------
+    fold_a, fold_b, judged : ndarray of bool
+    """
+    block = np.minimum((np.arange(n) * (n_blocks + 1)) // max(n, 1), n_blocks)
+    first = block == 0
+    return first | (block % 2 == 1), first | ((block % 2 == 0) & ~first), ~first
+
+
+def refit_test(theta: np.ndarray, reference: np.ndarray, prediction: np.ndarray, judged: np.ndarray,
+               term: str) -> FoldTest:
+    """The refit test's numbers: the out-of-fold predictions of the model with ``term`` against
+    those of the current model, on the ``judged`` samples (:func:`refit_folds`).
+
+    Parameters
+    ----------
+    theta : ndarray
+        The record's angle [rad].
+    reference, prediction : ndarray
+        Out-of-fold predictions over the record of the current model and of the model with the
+        term (each fold's fit simulated over the record, read on the other fold) [rad].
+    judged : ndarray of bool
+    term : str
+    """
+    gain, z = heldout_test(theta[judged], reference[judged], prediction[judged])
+    rms = lambda p: float(np.sqrt(np.mean((theta[judged] - p[judged]) ** 2)))  # noqa: E731
+    return FoldTest(term=term, gain=gain, z=z, rms_before=rms(reference), rms_after=rms(prediction),
+                    estimates=(math.nan, math.nan), prediction=prediction, reference=reference, mask=judged,
+                    name="refit_folds")
 
 
 def column(term: str, trajectory: np.ndarray) -> np.ndarray | None:

@@ -278,8 +278,11 @@ class DiscoveryLoop:
         if swap is None and not self.subset_tried:
             self.subset_tried = True
             pool_names = [e.name for e in self.pool if e.name not in self.banned]
+            # one more effect than kept, while structure remains and a combination that size is allowed
+            grow = bool(len(self.accepted) + 1 <= min(self.dc.max_combination, self.dc.max_effects)
+                        and off_diagnostics(self.diag_current.evidence))
             tried, subset = swap_subset(self.ctx, self.current, self.meas_kept, self.accepted, pool_names,
-                                        self.first_singles, step=self.step)
+                                        self.first_singles, step=self.step, grow=grow)
             self.judged.extend(tried)
             if subset is not None:
                 self.current, self.diag_current, self.steps = _adopt_subset(

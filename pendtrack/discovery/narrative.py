@@ -127,7 +127,12 @@ def _margin_cells(s: Mapping[str, Any]) -> tuple[str, str, str]:
 
 
 def _test_name(s: Mapping[str, Any]) -> str:
-    return "interleaved cross-validation RMS" if s.get("test") == "interleaved" else "held-out RMS"
+    return {"interleaved": "interleaved cross-validation RMS",
+            "refit_folds": "RMS refitted on interleaved folds"}.get(s.get("test", ""), "held-out RMS")
+
+
+def _test_tag(s: Mapping[str, Any]) -> str:
+    return {"interleaved": " (interleaved)", "refit_folds": " (refit folds)"}.get(s.get("test", ""), "")
 
 
 def _measurement_verdict(r: Mapping[str, Any]) -> list[str]:
@@ -297,7 +302,7 @@ def write_markdown(result: DiscoveryResult) -> str:
             rows.append((label, params, f"{_mrad(s['rms_before'])} -> {_mrad(s['rms_after'])}",
                          f"{_f(s['xi2_before'])} -> {_f(s['xi2_after'])}",
                          f"{_mrad(s['heldout_rms_before'])} -> {_mrad(s['heldout_rms_after'])}"
-                         + (" (interleaved)" if s.get("test") == "interleaved" else ""),
+                         + _test_tag(s),
                          *_margin_cells(s)))
         lines += _table(("term", "new parameters (± stderr)", "RMS [mrad]", "Xi^2", "test RMS [mrad]",
                          "z (margin vs 3)", "dBIC (margin vs -10)", "stability"), rows)
@@ -307,7 +312,7 @@ def write_markdown(result: DiscoveryResult) -> str:
     if r["runners_up"]:
         lines += ["### Runners-up", ""]
         rows = [(("measurement " if c.get("kind") == "measurement" else "") + str(c["step"]), f"`{c['effect']}`",
-                 _mrad(c["heldout_rms"]) + (" (interleaved)" if c.get("test") == "interleaved" else ""),
+                 _mrad(c["heldout_rms"]) + _test_tag(c),
                  *_margin_cells(c), c["reason"])
                 for c in r["runners_up"]]
         lines += _table(("step", "term(s)", "test RMS [mrad]", "z (margin vs 3)", "dBIC (margin vs -10)",
@@ -339,6 +344,9 @@ def write_markdown(result: DiscoveryResult) -> str:
               "(its held-out RMS); a measurement term, which shifts every sample, is judged by interleaved "
               f"cross-validation instead: the record cut into {th.get('cv_blocks', 10)} blocks, the term estimated "
               "on the even ones predicts the odd ones and back, the physics held at the current whole-record fit. "
+              "An effect that acts early in the run and fades (time-varying damping) and fails the held-out "
+              "test is judged again where it acts: the current model and the model with it are refitted on "
+              "interleaved blocks of the whole record (the first block in both) and predict the other blocks. "
               "A term is kept only if that gain is significant against noise "
               f"(z > {_f(th['heldout_z_min'], '.1f')}) and at "
               f"least {_f(100 * th.get('heldout_min_gain', 0.0), '.0f')} % of the test RMS, "

@@ -195,7 +195,8 @@ class Candidate(_AddsTerms):
             return self.note
         if self.error:
             return f"could not be fitted: {self.error}"
-        what = "held-out" if self.test == "heldout" else "interleaved cross-validation"
+        what = {"heldout": "held-out", "refit_folds": "refit on interleaved folds"}.get(
+            self.test, "interleaved cross-validation")
         if not math.isfinite(self.delta_bic):
             return (f"{what} gain {1e3 * self.heldout_gain:+.3f} mrad, z {self.heldout_z:.1f} (not significant); "
                     "not refitted on the whole record, no dBIC")

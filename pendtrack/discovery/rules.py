@@ -42,7 +42,11 @@ The candidate's whole-record fit carries no flag of its own (:func:`own_flags`)
 
 A **measurement term** is judged by interleaved-block cross-validation instead of the
 held-out extrapolation (:mod:`pendtrack.discovery.interleaved`), by the same z, gain and the
-other rules. Every decision carries its margins (``z - 3``, ``-10 - dBIC``, ...) and its
+other rules. An effect that acts early in the run and fades (``Effect.early``: time-varying
+damping) and fails the held-out test gets a second held-out test that looks where it acts:
+the current model and the model with it are each refitted on two interleaved folds of the
+record and predict the other fold (:meth:`pendtrack.discovery.exchange.Context.refit_test`);
+its z and gain stand in for the held-out ones, and the other rules are unchanged. Every decision carries its margins (``z - 3``, ``-10 - dBIC``, ...) and its
 stability over block-bootstrap records (:mod:`pendtrack.discovery.stability`).
 
 The whole-record fit of a candidate starts from its training fit and from the current
@@ -130,14 +134,14 @@ def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, s
     The same rules judge a measurement term, a single effect and a combination of effects
     (``terms``; its parameters are all paid for in BIC). A candidate without a whole-record
     fit (it failed the held-out test, so it was not refitted) has ``delta_bic = NaN``.
-    ``test``: a measurement term's interleaved test (:mod:`pendtrack.discovery.interleaved`),
-    which then stands in for the held-out test. Every candidate gets its margins against each
+    ``test``: a measurement term's interleaved test, or an early effect's refit test
+    (:mod:`pendtrack.discovery.interleaved`), which then stands in for the held-out test. Every candidate gets its margins against each
     rule and the stability of its decision (:mod:`pendtrack.discovery.stability`).
     """
     from pendtrack.discovery.stability import Rules, decision_stability
 
     names = terms or (effect,)
-    which = "interleaved" if test is not None else "heldout"
+    which = test.name if test is not None else "heldout"
     if pair.error or pair.train is None or current.full is None:
         return Candidate(effect, step, score, pair.train, pair.full, math.inf, -math.inf, -math.inf, math.nan,
                          False, False, error=pair.error or "fit failed", terms=terms, kind=kind, test=which,
@@ -145,7 +149,9 @@ def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, s
     if test is not None:
         gain, z = test.gain, test.z
         rms_ref, rms_test = test.rms_before, test.rms_after
-        samples = (data.theta, current.trajectory, test.prediction)
+        ref = test.reference if test.reference is not None else current.trajectory
+        judged = test.mask if test.mask is not None else slice(None)
+        samples = (data.theta[judged], ref[judged], test.prediction[judged])
     else:
         gain, z = judge_heldout(pair, current, data)
         rms_ref, rms_test = current.heldout_rms, pair.heldout_rms

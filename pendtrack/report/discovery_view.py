@@ -59,7 +59,8 @@ def _steps_table(steps: list[Any]) -> Table:
                   "test before [mrad]", "test after [mrad]", "test gain", "ΔBIC", "stability"), tuple(rows),
                  caption="Each step adds one term to the model. The evidence that it is real: the RMS of "
                          "θ − θ<sub>model</sub> on the whole record and, what counts, on data it was not fitted to "
-                         "(an effect: the held-out part of the record; a measurement term: interleaved blocks), "
+                         "(an effect: the held-out part of the record, or for an early, fading one refits on "
+                         "interleaved blocks; a measurement term: interleaved blocks), "
                          "ΔBIC (negative favours the term), and the share of resampled records on which the same "
                          "decision is made (below 80 %: borderline).",
                  text_columns=(1, 2), key="discovery-steps")

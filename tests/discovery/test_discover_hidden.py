@@ -266,6 +266,9 @@ def test_single_effect_at_30fps_twelve_cases():
 # error and 30 replicas (seed 1931966765: the true model's loop area read z 3.3, now 2.6; both effects named).
 # Misses: seeds 2043974130 and 950825763 as above (time-varying damping + memory 2 of 4). With the kept terms also
 # put back at their plain shapes (starts.reseated_starts): the same 10 of 12, 16 min beside the slow suite.
+# With a pair tried in the place of one kept effect while structure remains (exchange.swap_subset's grow) and a
+# fading effect refitted on interleaved folds: 11 of 12 (seed 950825763: time-varying damping + memory in the
+# added mass's place), the other 11 decisions unchanged; 16 min beside the slow suite.
 @pytest.mark.slow
 @CAMPAIGN  # 12 discoveries of 60-70 s at 120 Hz: 15-30 min, more than the slow suite can spare
 def test_pairs_of_effects_at_120hz():
@@ -279,6 +282,9 @@ def test_pairs_of_effects_at_120hz():
 # for the added mass); 9 of 12 with the kept terms also put back at their plain shapes (starts.reseated_starts):
 # 3 of 4 for each pair. Misses: seed 1701770564 (the added mass beside memory at beta 0.97: dBIC -0.5), seeds
 # 1454907461 and 2087280414 (time-varying damping after an added mass: held-out gain -0.34 and +0.02 mrad).
+# With the pair in the place of one kept effect (exchange.swap_subset's grow) and the fading damping refitted on
+# interleaved folds (Context.refit_test): 11 of 12, and 11 of 12 from PENDTRACK_DISCOVER_SEED=20251 (13 min each,
+# two at once); the misses are added mass + memory with memory kept at beta near 1 (seeds 1701770564, 428690398).
 PAIR_FIELD = {"rate_hz": 120.0, "duration": (60.0, 80.0), "noise": (0.002, 0.003), "sizes": "field"}
 
 
