@@ -28,7 +28,7 @@ import numpy as np
 from pendtrack.config import Config
 from pendtrack.discovery.catalogue import CATALOGUE as EFFECTS
 from pendtrack.discovery.data import AnalysisData
-from pendtrack.discovery.interleaved import FoldTest, interleaved_test, refit_folds, refit_test
+from pendtrack.discovery.interleaved import FoldTest, interleaved_test, out_of_fold_test, refit_folds
 from pendtrack.discovery.result import Candidate
 from pendtrack.discovery.candidate_fits import (
     FitPair, FitTask, fit_fold, fit_full, fit_pair, fit_train, full_start, run_tasks, warm_start,
@@ -132,7 +132,7 @@ class Context:
         out: list[FoldTest | None] = []
         for task, pred in zip(tasks, oof):
             ok = np.all(np.isfinite(ref[judged])) and np.all(np.isfinite(pred[judged]))
-            out.append(refit_test(data.theta, ref, pred, judged, "+".join(task.extra)) if ok else None)
+            out.append(out_of_fold_test(data.theta, ref, pred, judged, "+".join(task.extra)) if ok else None)
         return out
 
     def evaluate_measurement(self, current: FitPair, kept: Sequence[str], terms: Sequence[str],

@@ -1,7 +1,7 @@
 """Interleaved-block cross-validation: a test that is not an extrapolation.
 
 Two uses: a measurement term (:func:`interleaved_test`, below) and an effect that acts early in
-the run and fades (:func:`refit_folds`, :func:`refit_test`: the models are refitted on each fold
+the run and fades (:func:`refit_folds`, :func:`out_of_fold_test`: the models are refitted on each fold
 by :meth:`pendtrack.discovery.exchange.Context.refit_test`; the first block, the release, is in
 both folds, so each fold's fit starts where the record does).
 
@@ -96,7 +96,7 @@ def refit_folds(n: int, n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, np.ndarra
     return first | (block % 2 == 1), first | ((block % 2 == 0) & ~first), ~first
 
 
-def refit_test(theta: np.ndarray, reference: np.ndarray, prediction: np.ndarray, judged: np.ndarray,
+def out_of_fold_test(theta: np.ndarray, reference: np.ndarray, prediction: np.ndarray, judged: np.ndarray,
                term: str) -> FoldTest:
     """The refit test's numbers: the out-of-fold predictions of the model with ``term`` against
     those of the current model, on the ``judged`` samples (:func:`refit_folds`).
