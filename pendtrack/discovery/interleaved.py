@@ -97,7 +97,7 @@ def refit_folds(n: int, n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, np.ndarra
 
 
 def out_of_fold_test(theta: np.ndarray, reference: np.ndarray, prediction: np.ndarray, judged: np.ndarray,
-               term: str) -> FoldTest:
+                     term: str) -> FoldTest:
     """The refit test's numbers: the out-of-fold predictions of the model with ``term`` against
     those of the current model, on the ``judged`` samples (:func:`refit_folds`).
 
