@@ -44,6 +44,9 @@ class FitSummary:
     flags : mapping
         Parameter -> why its value is not a measurement (``FitResult.flags``,
         :func:`pendtrack.fitting.result.plausibility_flags`); empty for a trustworthy fit.
+    findings : mapping
+        Parameter -> the effect its fit shows absent (``FitResult.findings``,
+        :func:`pendtrack.fitting.result.split_findings`: a term at the limit where it vanishes).
     """
 
     model: str
@@ -63,6 +66,7 @@ class FitSummary:
     message: str
     runtime_s: float
     flags: Mapping[str, str] = field(default_factory=dict)
+    findings: Mapping[str, str] = field(default_factory=dict)
 
     @classmethod
     def from_fit(cls, fit: Any, extra: tuple[str, ...]) -> "FitSummary":
@@ -75,7 +79,8 @@ class FitSummary:
                    bic=float(fit.bic), n=int(fit.n), k=int(fit.n_params),
                    window=(float(fit.window[0]), float(fit.window[1])), converged=bool(fit.converged),
                    message=str(fit.message), runtime_s=float(fit.runtime_s),
-                   flags={str(k): str(v) for k, v in (getattr(fit, "flags", None) or {}).items()})
+                   flags={str(k): str(v) for k, v in (getattr(fit, "flags", None) or {}).items()},
+                   findings={str(k): str(v) for k, v in (getattr(fit, "findings", None) or {}).items()})
 
     def params(self, names: tuple[str, ...] | None = None) -> dict[str, dict[str, float | None]]:
         """``{name: {"value", "stderr", "u_paper"}}`` for the named (default all) parameters."""
@@ -88,7 +93,8 @@ class FitSummary:
                 "initial_state": {"theta0": _num(self.theta0), "omega0": _num(self.omega0)},
                 "xi2": _num(self.xi2), "rms": _num(self.rms), "bic": _num(self.bic), "n": self.n, "k": self.k,
                 "window": [_num(self.window[0]), _num(self.window[1])], "converged": self.converged,
-                "message": self.message, "runtime_s": _num(self.runtime_s), "flags": dict(self.flags)}
+                "message": self.message, "runtime_s": _num(self.runtime_s), "flags": dict(self.flags),
+                "findings": dict(self.findings)}
 
 
 class _AddsTerms:
@@ -140,6 +146,11 @@ class Candidate(_AddsTerms):
         Flags of its whole-record fit that the term brought (on its own parameters, or new
         against the current model's fit: memory at ``beta`` = 1 flags ``Omega0`` as an added
         mass): a term whose fit is flagged is not kept, its values are not measurements.
+    absent : mapping
+        Findings of its whole-record fit on the new terms' parameters: a term at the limit where it
+        vanishes or becomes a simpler one (an amplitude at 0, ``beta`` at 0). Such a candidate is not
+        the set it is named by, and is not kept: with added mass + memory at ``Ca`` = 0 it is memory
+        alone, in another minimum.
     lowers_rms : bool
         Its whole-record fit's residual RMS is below the current model's (True when not refitted).
     test : str
@@ -176,11 +187,14 @@ class Candidate(_AddsTerms):
     test_rms_before: float = math.nan
     margins: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     stability: float = math.nan
+    absent: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def earns_keep(self) -> bool:
-        """Every rule passed: the test, BIC, a lower whole-record residual, an unflagged fit."""
-        return self.passes_bic and self.passes_heldout and self.lowers_rms and not self.flags and not self.error
+        """Every rule passed: the test, BIC, a lower whole-record residual, an unflagged fit with every new
+        term present."""
+        return (self.passes_bic and self.passes_heldout and self.lowers_rms and not self.flags and not self.absent
+                and not self.error)
 
     @property
     def borderline(self) -> bool:
@@ -208,6 +222,8 @@ class Candidate(_AddsTerms):
         if self.flags:
             parts.append("its fit is flagged (" + "; ".join(f"{k} {v}" for k, v in self.flags.items())
                          + "): its values are not measurements")
+        if self.absent:
+            parts.append("in its fit " + "; ".join(sorted(set(self.absent.values()))))
         return "; ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
@@ -221,7 +237,8 @@ class Candidate(_AddsTerms):
                 "heldout_rms": _num(self.heldout_rms), "heldout_gain": _num(self.heldout_gain),
                 "heldout_z": _num(self.heldout_z), "delta_bic": _num(self.delta_bic), "passes_bic": self.passes_bic,
                 "passes_heldout": self.passes_heldout, "earns_keep": self.earns_keep and not self.note,
-                "lowers_rms": self.lowers_rms, "flags": dict(self.flags), "test": self.test,
+                "lowers_rms": self.lowers_rms, "flags": dict(self.flags), "absent": dict(self.absent),
+                "test": self.test,
                 "margins": _jsonable(self.margins), "stability": _num(self.stability), "borderline": self.borderline,
                 "reason": self.reason(),
                 "error": self.error}

@@ -40,6 +40,11 @@ The candidate's whole-record fit carries no flag of its own (:func:`own_flags`)
     brings onto the others (memory with ``beta`` and ``p_f`` near 1 flags ``Omega0``: the term
     is an added mass). A flagged fit's values are not measurements, so the term is not named.
 
+Every term it adds is present in that fit (:func:`absent_terms`)
+    A term at the limit where it vanishes or becomes a simpler one (an amplitude at 0, ``beta``
+    at 0: ``FitResult.findings``) is a finding that the data show no such term. A set of effects
+    with one member absent is the others alone, and is not kept under its name.
+
 A **measurement term** is judged by interleaved-block cross-validation instead of the
 held-out extrapolation (:mod:`pendtrack.discovery.interleaved`), by the same z, gain and the
 other rules. An effect that acts early in the run and fades (``Effect.early``: time-varying
@@ -116,6 +121,22 @@ def own_flags(pair: FitPair, current: FitPair, terms: Sequence[str], *, kind: st
     return {k: v for k, v in pair.full.flags.items() if k in mine or k not in before}
 
 
+def absent_terms(pair: FitPair, terms: Sequence[str]) -> dict[str, str]:
+    """Findings of the candidate's whole-record fit on its new terms' parameters: a term it adds that sits
+    at the limit where it vanishes or becomes a simpler term (:func:`pendtrack.fitting.result.split_findings`).
+
+    Such a candidate is not the model it is named by: a pair whose added mass ends at ``Ca`` = 0 is its
+    other member alone, perhaps in another minimum than that member's own fit, and the added mass
+    must not be reported as kept.
+    """
+    from pendtrack.models import CATALOGUE
+
+    if pair.full is None:
+        return {}
+    mine = {p for t in terms if t in CATALOGUE for p in CATALOGUE[t].params}
+    return {k: v for k, v in pair.full.findings.items() if k in mine}
+
+
 def rule_margins(z: float, gain: float, rms_ref: float, dbic: float, *, heldout_z_min: float, min_gain: float,
              delta_bic_max: float, rms_change: float) -> dict[str, dict[str, float]]:
     """Each rule's value, threshold and margin (> 0: passes); NaN for a rule not reached."""
@@ -160,19 +181,21 @@ def judge(pair: FitPair, current: FitPair, data: AnalysisData, *, effect: str, s
     dbic = pair.full.bic - current.full.bic if pair.full is not None else math.nan
     rms_change = current.full.rms - pair.full.rms if pair.full is not None else math.nan
     flags = own_flags(pair, current, names, kind=kind)
+    absent = absent_terms(pair, names)
     passes_h = passes_heldout(gain, z, heldout_z_min, min_gain=min_gain, heldout_rms=rms_ref)
     lowers = bool(pair.full is None or rms_change > 0)
     cand = Candidate(effect=effect, step=step, signature_score=score, train=pair.train, full=pair.full,
                      heldout_rms=rms_test, heldout_gain=gain, heldout_z=z, delta_bic=dbic,
                      passes_bic=bool(dbic < delta_bic_max), passes_heldout=passes_h, terms=terms, kind=kind,
-                     flags=flags, lowers_rms=lowers, test=which,
+                     flags=flags, absent=absent, lowers_rms=lowers, test=which,
                      test_rms_before=rms_ref if test is not None else math.nan,
                      margins=rule_margins(z, gain, rms_ref, dbic, heldout_z_min=heldout_z_min, min_gain=min_gain,
                                       delta_bic_max=delta_bic_max, rms_change=rms_change))
     whole = (data.theta, current.trajectory, pair.trajectory) if pair.full is not None else None
     stab = decision_stability(kept=cand.earns_keep, test=samples, test_rms_ref=rms_ref, whole=whole,
                               delta_bic=dbic, n_bic=pair.full.n if pair.full is not None else 0,
-                              rules=Rules(heldout_z_min, min_gain, delta_bic_max), fixed=bool(flags), seed=seed)
+                              rules=Rules(heldout_z_min, min_gain, delta_bic_max), fixed=bool(flags or absent),
+                              seed=seed)
     return replace(cand, stability=stab)
 
 

@@ -195,7 +195,8 @@ def sandwich(bread: np.ndarray, meat: np.ndarray) -> np.ndarray:
         binv = np.linalg.inv(bread)
     except np.linalg.LinAlgError:
         return np.full_like(bread, np.nan)
-    cov = binv @ meat @ binv
+    with np.errstate(over="ignore", invalid="ignore"):  # singular to rounding: inf or NaN entries, not a warning
+        cov = binv @ meat @ binv
     return 0.5 * (cov + cov.T)
 
 
@@ -293,11 +294,21 @@ def projection_bias(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
     ndarray, shape (L + 1, c, c)
         What to add to ``gamma``.
     """
-    c, n, _ = jc.shape
     try:
         binv = np.linalg.inv(np.einsum("cnp,cnq->pq", jc, jc))
     except np.linalg.LinAlgError:
         return np.zeros_like(gamma)
+    with np.errstate(over="ignore", invalid="ignore"):
+        bias = _projection_fixed_point(jc, gamma, weights, cross, binv)
+    # J^T J singular to rounding (a memory fit on a 140-s Tracker record ran p_f to 189 and G2 to 2.5e159:
+    # cond 3e20) gives an inverse whose products overflow; then, as for an exactly singular one, no correction
+    return bias if np.all(np.isfinite(bias)) else np.zeros_like(gamma)
+
+
+def _projection_fixed_point(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
+                            cross: dict[tuple[int, int, int], np.ndarray], binv: np.ndarray) -> np.ndarray:
+    """:func:`projection_bias`'s fixed point, given ``binv = (J^T J)^-1``."""
+    c, n, _ = jc.shape
     bias = np.zeros_like(gamma)
     for _ in range(PROJECTION_ITERATIONS):
         g = (gamma + bias) * np.asarray(weights)[:, None, None]
@@ -384,6 +395,8 @@ def flat_top_lag(scores: np.ndarray, *, c: float = 2.0, min_flat: int = 0) -> in
 def nearest_psd(a: np.ndarray) -> np.ndarray:
     """``a`` (symmetric) with its negative eigenvalues set to 0: a flat-top kernel's meat made a covariance."""
     a = 0.5 * (a + a.T)
+    if not np.all(np.isfinite(a)):  # no covariance to make: NaN, as a singular J^T J gives
+        return np.full_like(a, np.nan)
     vals, vecs = np.linalg.eigh(a)
     if vals.min() >= 0:
         return a

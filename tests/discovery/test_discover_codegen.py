@@ -98,21 +98,11 @@ SYNTHETIC = {
 }
 
 
-# The drifting-Omega0 case is a known shortfall (its xfail reason): 4 minutes of CI would only restate it, so
-# it runs by hand with PENDTRACK_CAMPAIGN=1, as the hidden-effect campaigns do; strict, so it must pass then.
-CAMPAIGN = pytest.mark.skipif(not os.environ.get("PENDTRACK_CAMPAIGN"),
-                              reason="campaign of an unmet bar: set PENDTRACK_CAMPAIGN=1 to run it")
-
-
+# The drifting-Omega0 control (60 s at 30 fps, outside the catalogue) is the case whose memory fits reached
+# different minima from one start under the two code generations; the candidates' nested start (the current
+# optimum with the new terms at 1 %) makes them agree (docs/decisions.md, 2026-11-27).
 @pytest.mark.slow
-@pytest.mark.parametrize("case", [pytest.param(c, marks=[CAMPAIGN, pytest.mark.xfail(strict=True, reason=(
-    "not met yet: the single time-varying damping is now flagged alike (C4 not determined by the zero-step "
-    "sandwich), but the pair memory + time-varying damping is kept under `partial` by the host's code (dBIC -77) "
-    "while the generic code's one-start training fit of it lands in another basin (whole-record dBIC +365): memory "
-    "fits on this record reach different minima from one start; 3 starts per candidate make the two agree here but "
-    "part lab1's final memory fit (beta 1.0 against 0.50, BIC 8 apart). A decision that must become stable, not "
-    "a tolerance to loosen"))]) if c == "drifting_omega0" else c
-    for c in sorted(SYNTHETIC)])
+@pytest.mark.parametrize("case", sorted(SYNTHETIC))
 def test_synthetic_same_decisions_under_generic_and_host_code(tmp_path, caches, case):
     from pendtrack.discovery.synthetic import draw_run
 

@@ -592,3 +592,35 @@ def test_reseated_starts_put_a_kept_memory_back_at_its_plain_shape_with_its_size
     # a kept term without a shape (an added mass) has nothing to put back
     assert reseated_starts(compose("standard", ["added_mass"]), {**base, "Ca": 0.02}, ["added_mass"],
                            {**base, "Ca": 0.02, "G2": 0.001}, th, om, t, memory_s=2.0) == []
+
+
+def test_a_set_whose_member_its_fit_shows_absent_is_not_kept():
+    # changing-length control seed 1250786076: "added mass + memory" was kept (dBIC -42) with Ca = 7e-9 on its
+    # bound 0: memory alone in another minimum, reported as an added mass that improves the fit
+    import math
+
+    import numpy as np
+
+    from pendtrack.discovery.candidate_fits import FitPair
+    from pendtrack.discovery.result import Candidate, FitSummary
+    from pendtrack.discovery.rules import absent_terms
+
+    no_ca = "the data show no added mass: Ca = 7.06e-09 +- 3.5e-08; the model reduces to gravity+standard+memory"
+    no_c0 = "the data show no coulomb: C0 = 1e-09; the model reduces to ..."
+    full = FitSummary(model="standard+added_mass+memory", extra=("added_mass", "memory"),
+                      values={"Ca": 7e-9, "G2": 2e-5, "beta": 0.9, "p_f": 0.01, "C0": 1e-9}, stderr={}, u_paper={},
+                      theta0=0.0, omega0=0.0, xi2=3.4e-5, rms=6.1e-3, bic=-100.0, n=1800, k=12,
+                      window=(0.0, 60.0), converged=True, message="", runtime_s=1.0,
+                      findings={"Ca": no_ca, "C0": no_c0})
+    empty = np.full(3, math.nan)
+    pair = FitPair(("added_mass", "memory"), full, full, empty, 0.019, empty, empty)
+    # the baseline's own Coulomb friction at 0 is not the candidate's
+    assert absent_terms(pair, ("added_mass", "memory")) == {"Ca": no_ca}
+    assert absent_terms(pair, ("memory",)) == {}
+    kept = Candidate("added_mass+memory", 1, 0.0, full, full, 0.019, 1e-3, 7.1, -42.4, True, True,
+                     terms=("added_mass", "memory"))
+    assert kept.earns_keep
+    absent = Candidate("added_mass+memory", 1, 0.0, full, full, 0.019, 1e-3, 7.1, -42.4, True, True,
+                       terms=("added_mass", "memory"), absent={"Ca": no_ca})
+    assert not absent.earns_keep
+    assert "the data show no added mass" in absent.reason() and absent.to_dict()["absent"] == {"Ca": no_ca}

@@ -184,3 +184,23 @@ def test_a_joint_amplitude_over_exponents_fitted_per_run_keeps_its_own_coordinat
     assert joint_coordinates(runs, per_run_p) is None
     held_c3 = [{"p": "p"}, {"p": "p"}]  # C3 held: not in the fitted labels
     assert joint_coordinates(runs, held_c3) is None
+
+
+def test_a_step_far_out_maps_to_a_finite_point_without_an_overflow_warning():
+    # a 140-s Tracker record at 30 fps printed numpy's "overflow encountered in scalar multiply" to the user:
+    # an amplitude of 1e10 with an exponent step to 80 (exp clipped at 700) multiplied past float64's range:
+    # inf, as before, and no warning
+    import warnings
+
+    from pendtrack.fitting.leastsq.coordinates import BoundCoordinates
+
+    coords = BoundCoordinates(scaled=((0, ((1, 10.0),)),))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x = coords.to_natural(np.array([1e10, -80.0]))
+        y = coords.to_internal(np.array([-1e10, 80.0]))
+    assert x[0] == np.inf and x[1] == -80.0
+    assert y[0] == -np.inf
+    # inside the range the maps are each other's inverse
+    back = coords.to_natural(coords.to_internal(np.array([0.3, 1.7])))
+    assert np.allclose(back, [0.3, 1.7], rtol=1e-12)

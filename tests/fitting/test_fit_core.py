@@ -430,3 +430,28 @@ def test_half_angle_sine_kernel_matches_twin_and_numpy():
         small = np.abs(theta) < 1e-4
         np.testing.assert_allclose(out[small], ref[small], rtol=4e-16, atol=1e-300)
     np.testing.assert_allclose(outs[0], outs[1], rtol=0, atol=4e-16)
+
+
+def test_a_sandwich_singular_to_rounding_gives_no_covariance_not_an_error():
+    # a memory fit on a 140-s Tracker record at 30 fps ran p_f to 189 and G2 to 2.5e159: G2's column of the
+    # Jacobian ~1e-160, J^T J's condition 3e20; the projection correction's products overflowed, the meat turned
+    # NaN and numpy's eigh raised "Eigenvalues did not converge", so discovery reported memory as "could not be
+    # fitted". Now: the parameter's variance is not finite (not determined), the others' are, and nothing warns
+    import warnings
+
+    from pendtrack.fitting.uncertainty import hac_covariance
+
+    rng = np.random.default_rng(7)
+    n = 600
+    t = np.arange(n) / 30.0
+    jac = np.column_stack([np.sin(2.6 * t), np.cos(2.6 * t), 1e-160 * np.sin(5.2 * t)])
+    r = rng.normal(0.0, 1e-3, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cov, lag = hac_covariance(jac, r, n)
+    d = np.diag(cov)
+    assert lag >= 1
+    assert not (np.isfinite(d[2]) and d[2] < 1e100)  # G2's error: not a measurement
+    ok = jac[:, :2]
+    cov2, _ = hac_covariance(ok, r, n, lag=lag)
+    assert np.all(np.isfinite(np.diag(cov2)))

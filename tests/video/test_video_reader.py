@@ -103,6 +103,16 @@ def test_not_a_video(tmp_path):
 
 
 @pytest.mark.video
+def test_a_git_lfs_pointer_is_named_as_one(tmp_path):
+    # a user's repository cloned without git lfs (seanmacb/PHYS-311-Project@6cde4b3: IMG_0343.MOV, 134 bytes)
+    p = tmp_path / "IMG_0343.MOV"
+    p.write_text("version https://git-lfs.github.com/spec/v1\n"
+                 "oid sha256:4d7a214614ab2935c943f9e0ff69d22eadbb8f32b1258daaa5e2ca24d17e2393\nsize 12345\n")
+    with pytest.raises(VideoError, match=r"IMG_0343\.MOV: a Git LFS pointer, not the video itself"):
+        VideoReader(p)
+
+
+@pytest.mark.video
 def test_truncated_video_moov_at_end(tmp_path):
     good = _encode(tmp_path / "v.mp4", _grey_frames(30))
     bad = tmp_path / "cut.mp4"

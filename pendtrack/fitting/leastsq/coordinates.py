@@ -101,7 +101,7 @@ class BoundCoordinates:
         """``y`` of a point ``x`` (a copy)."""
         y = np.array(x, dtype=float)
         for i, exps in self.scaled:
-            y[i] = x[i] * _exp(sum(x[j] * lg for j, lg in exps))
+            y[i] = _times_exp(float(x[i]), sum(x[j] * lg for j, lg in exps))
         if self.tv is not None:
             i, j, t_ref = self.tv
             kappa = 1.0 / (t_ref - x[j])
@@ -112,7 +112,7 @@ class BoundCoordinates:
         """``x`` of a point ``y`` (a copy)."""
         x = np.array(y, dtype=float)
         for i, exps in self.scaled:
-            x[i] = y[i] * _exp(-sum(y[j] * lg for j, lg in exps))
+            x[i] = _times_exp(float(y[i]), -sum(y[j] * lg for j, lg in exps))
         if self.tv is not None:
             i, j, t_ref = self.tv
             x[i], x[j] = y[i] / y[j], t_ref - 1.0 / y[j]
@@ -159,6 +159,14 @@ def _exp(v: float) -> float:
     step to p = 1e4) maps to a huge but finite value, whose residuals are the fit's penalty, instead of
     an OverflowError."""
     return math.exp(min(max(v, -EXP_LIMIT), EXP_LIMIT))
+
+
+def _times_exp(a: float, v: float) -> float:
+    """``a exp(v)`` (:func:`_exp`) in Python floats: a product past float64's range is inf, as numpy's is, but
+    without numpy's overflow warning, which reached the user on a 140-s Tracker record at 30 fps (a step to an
+    amplitude of 1e10 with a large exponent; the point's residuals are then not finite and the step is
+    rejected)."""
+    return a * _exp(v)
 
 
 def _log_reference(x: np.ndarray, power: float) -> float | None:
