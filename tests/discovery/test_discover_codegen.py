@@ -100,9 +100,16 @@ SYNTHETIC = {
 
 # The drifting-Omega0 control (60 s at 30 fps, outside the catalogue) is the case whose memory fits reached
 # different minima from one start under the two code generations; the candidates' nested start (the current
-# optimum with the new terms at 1 %) makes them agree (docs/decisions.md, 2026-11-27).
+# optimum with the new terms at 1 %) makes them agree (docs/decisions.md, 2026-11-27). It takes 4.6 min on
+# the AMD EPYC, about 7 on the Intel Xeon, where CI's slow suite already runs near its 90-minute limit: it runs
+# by hand, PENDTRACK_CAMPAIGN=1, as the discovery campaigns do.
+CAMPAIGN = pytest.mark.skipif(not os.environ.get("PENDTRACK_CAMPAIGN"),
+                              reason="by hand (CI's time): set PENDTRACK_CAMPAIGN=1 to run it")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("case", sorted(SYNTHETIC))
+@pytest.mark.parametrize("case", [pytest.param(c, marks=CAMPAIGN) if c == "drifting_omega0" else c
+                                  for c in sorted(SYNTHETIC)])
 def test_synthetic_same_decisions_under_generic_and_host_code(tmp_path, caches, case):
     from pendtrack.discovery.synthetic import draw_run
 
