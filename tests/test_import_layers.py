@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendtrack"
 #: The layers, lowest first (docs/architecture.md). A module may import from its own layer and
 #: from layers to its left, never from a layer to its right.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("version", "errors", "config", "progress", "apparatus"),
+    ("version", "errors", "config", "progress", "apparatus", "gitlfs"),
     ("parallel",),
     ("artifacts", "tables", "lens", "video"),
     ("models",),

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendtrack.kinematics.release import without_hold
 from pendtrack.tables import PivotFit, Record, TableSpec, is_video, read_record
 
 __all__ = ["MIN_SAMPLES", "AngleSeries", "is_video", "read_angle_series", "series_from_record"]
@@ -74,8 +75,10 @@ class AngleSeries:
 
 
 def series_from_record(rec: Record) -> AngleSeries:
-    """The usable rows of a :class:`pendtrack.tables.Record` as an :class:`AngleSeries`."""
-    return AngleSeries(t=rec.t[rec.ok], theta=rec.theta[rec.ok], source=rec.source, kind=rec.kind,
+    """The usable rows of a :class:`pendtrack.tables.Record` as an :class:`AngleSeries`, from the release on
+    (a hold before it is no free swing: :func:`pendtrack.kinematics.release.without_hold`)."""
+    ok = rec.ok if rec.kind == "kinematics" else without_hold(rec.t, rec.theta, rec.ok, source=rec.source)[0]
+    return AngleSeries(t=rec.t[ok], theta=rec.theta[ok], source=rec.source, kind=rec.kind,
                        smoothed=(rec.kind == "kinematics"))
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import pandas as pd
 from pendtrack.config import KinematicsConfig
 from pendtrack.kinematics.differentiate import KinematicsError, KinematicsResult, savgol_kinematics
 from pendtrack.kinematics.initial import analyse, omega0_from_kinematics
+from pendtrack.kinematics.release import without_hold
 
 log = logging.getLogger(__name__)
 
@@ -43,12 +44,21 @@ class KinematicsTable:
 def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, options: KinematicsConfig,
                          source: Any = None) -> KinematicsResult:
     """:func:`savgol_kinematics` with ``[kinematics]``'s window [s], order, gap bridging and minimum
-    segment; a failure names ``source``."""
+    segment; a failure names ``source``.
+
+    A hold before the release (:func:`pendtrack.kinematics.release.find_hold`) is not a free swing:
+    its samples get ``ok = False`` (their rows stay) and the derivatives start at the release, as at
+    any record's start. ``info`` gains ``held_until_s`` (the first sample after the hold [s], or None)
+    and ``n_held``.
+    """
+    ok, hold = without_hold(t, theta, ok, source=source)
     try:
-        return savgol_kinematics(t, theta, ok, window_s=options.savgol_window_s, order=options.savgol_order,
-                                 max_gap_s=options.max_gap_s, min_segment_s=options.min_segment_s)
+        kin = savgol_kinematics(t, theta, ok, window_s=options.savgol_window_s, order=options.savgol_order,
+                                max_gap_s=options.max_gap_s, min_segment_s=options.min_segment_s)
     except KinematicsError as exc:
         raise KinematicsError(str(exc), path=source) from None
+    held = {"held_until_s": None if hold is None else hold.release_s, "n_held": 0 if hold is None else hold.n}
+    return replace(kin, info={**kin.info, **held})
 
 
 def kinematic_columns(kin: KinematicsResult) -> pd.DataFrame:

@@ -14,6 +14,7 @@ import numpy as np
 from pendtrack.artifacts import Provenance, read_artifact, read_metadata
 from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError, ConfigError
+from pendtrack.gitlfs import is_lfs_pointer, lfs_message
 from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds
 from pendtrack.tables.grid import resample_irregular, resample_jittered, time_layout
 from pendtrack.tables.text import raw_record, read_text
@@ -185,6 +186,8 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
     spec = spec or TableSpec()
     if not path.is_file():
         raise ArtifactError("file not found", path=path)
+    if is_lfs_pointer(path):
+        raise ArtifactError(lfs_message("the data"), path=path)
     if is_video(path):
         raise ArtifactError("is a video: run the video stages first (`pendtrack run` or `pendtrack discover` do)",
                             path=path)
@@ -244,7 +247,7 @@ def _check_times(t: np.ndarray, path: Path) -> None:
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0))
         what = "a repeated time" if steps[i] == 0 else "time going back"
-        raise ArtifactError(f"time must be strictly increasing (times must increase strictly): {what}, t[{i + 1}] = "
+        raise ArtifactError(f"times must increase strictly: {what}, t[{i + 1}] = "
                             f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s", path=path)
 
 

@@ -36,6 +36,7 @@ from pendtrack.tables.units import ALL_UNITS, ColumnName, parse_column_name, rol
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
 _LAYOUTS = (("\t", False), ("\t", True), (";", False), (";", True), (",", False), (None, False), (None, True))
+MAX_SPELLED = 8  # a --columns hint spelled out in full up to this many columns (one line stays readable)
 
 
 def _cells(line: str, sep: str | None, decimal_comma: bool) -> list[str]:
@@ -161,11 +162,18 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
         cols_or_none = _header(preamble)
         where = "header"
         if cols_or_none is None:
+            if width > 2 and len(body) < width:
+                # a logger that writes one row per quantity (times, then angles): a record along the rows
+                raise ConfigError(f"{len(body)} rows of {width} values and no header: pendtrack reads one "
+                                  f"sample per row (t, theta, ... in columns); transpose the table")
             if width > 2:
-                hint = "t,theta" + ",_" * (width - 2)
-                raise ConfigError(f"{width} columns and no header: say what they are with --columns; add "
-                                  f"--columns {hint} if they are t [s], theta [rad] and {width - 2} to ignore "
-                                  f"(or --columns t,x,y{',_' * (width - 3)} for positions)")
+                if width <= MAX_SPELLED:
+                    hint = (f"add --columns t,theta{',_' * (width - 2)} if they are t [s], theta [rad] and "
+                            f"{width - 2} to ignore (or --columns t,x,y{',_' * (width - 3)} for positions)")
+                else:
+                    hint = (f"e.g. --columns t,theta,_,... with one name per column, _ for each of the "
+                            f"{width - 2} to ignore")
+                raise ConfigError(f"{width} columns and no header: say what they are with --columns; {hint}")
             cols_or_none = [ColumnName("t", label="t"), ColumnName("theta", label="theta")]
         cols = cols_or_none
     found = roles(cols, where)

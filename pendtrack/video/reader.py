@@ -36,6 +36,7 @@ import av
 import numpy as np
 
 from pendtrack.errors import VideoError
+from pendtrack.gitlfs import is_lfs_pointer, lfs_message
 
 log = logging.getLogger(__name__)
 
@@ -144,26 +145,13 @@ def _open(path: Path) -> av.container.InputContainer:
     try:
         container = av.open(str(path), mode="r")
     except av.error.FFmpegError as exc:
-        if _is_lfs_pointer(path):
-            raise VideoError("a Git LFS pointer, not the video itself (fetch it: git lfs pull)", path=path) from None
+        if is_lfs_pointer(path):
+            raise VideoError(lfs_message("the video"), path=path) from None
         raise VideoError(f"not a readable video ({_reason(exc)})", path=path) from None
     if not container.streams.video:
         container.close()
         raise VideoError("no video stream", path=path)
     return container
-
-
-LFS_POINTER = b"version https://git-lfs.github.com/spec/v1"  # first line of a file Git LFS left in its place
-
-
-def _is_lfs_pointer(path: Path) -> bool:
-    """A small text file that Git LFS leaves in a clone without the object (a video of a user's repository
-    cloned without ``git lfs``)."""
-    try:
-        with path.open("rb") as fh:
-            return fh.read(len(LFS_POINTER)) == LFS_POINTER
-    except OSError:
-        return False
 
 
 def _reason(exc: BaseException) -> str:

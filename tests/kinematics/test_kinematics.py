@@ -307,4 +307,4 @@ def test_cli_kinematics(tmp_path: Path) -> None:
     write_artifact(pd.DataFrame({"t": [0.0, 0.0, 1.0], "theta": [0.0, 0.1, 0.2], "ok": [True] * 3}), wrong, "angle",
                    provenance=Provenance(stage="angle"))
     res = runner.invoke(cli, ["kinematics", str(wrong), "--out", str(tmp_path / "o")])
-    assert res.exit_code == 2 and "strictly increasing" in res.output and "wrong.parquet" in res.output
+    assert res.exit_code == 2 and "times must increase strictly: a repeated time" in res.output and "wrong.parquet" in res.output

@@ -272,6 +272,43 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
 
 
 @pytest.mark.integration
+def test_a_record_laid_out_in_rows_is_named_in_one_short_line(tmp_path):
+    # a logger's export with one row of times [ms] and one of angles [deg] (1477 values each): the
+    # --columns hint spelled out for every column was a 6000-character "one line"
+    src = tmp_path / "rows.csv"
+    n = 300
+    src.write_text(",".join(f"{50 * i}" for i in range(n)) + "\n"
+                   + ",".join(f"{round(np.degrees(v))}" for v in THETA[:n]) + "\n")
+    line = _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"),
+                           str(src), f"2 rows of {n} values", "transpose")
+    assert len(line) < 300
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("name", ["log.csv", "angle.parquet", "run.trk"])
+def test_a_git_lfs_pointer_in_place_of_a_table_is_named_as_one(tmp_path, name):
+    # a user's repository cloned without git lfs: each log is this three-line text
+    src = tmp_path / name
+    src.write_text("version https://git-lfs.github.com/spec/v1\n"
+                   "oid sha256:99a69d69d8d1438396810b22e54ebcbea63bd11b931f5ed2ed655bbaba58d1f7\nsize 27513\n")
+    for command in COMMANDS:
+        out = tmp_path / f"out_{command[0]}"
+        _one_line_error(invoke(*command[:1], str(src), *command[1:], "--out", str(out), "-q"),
+                        str(src), "a Git LFS pointer, not the data itself (fetch it: git lfs pull)")
+        assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.integration
+def test_a_wide_headerless_table_gets_a_short_columns_hint(tmp_path):
+    src = tmp_path / "wide.txt"
+    src.write_text(_lines(*([T, THETA] + [T] * 10)))
+    line = _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"),
+                           "12 columns and no header", "--columns t,theta,_,...", "10 to ignore")
+    assert len(line) < 300
+
+
+@pytest.mark.integration
 def test_bad_columns_flag_is_a_one_line_usage_error(tmp_path):
     src, _ = _write(tmp_path, "plain")
     _one_line_error(invoke("kinematics", str(src), "--columns", "t,omega", "--out", str(tmp_path / "o")),

@@ -238,8 +238,9 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray],
                 n_jac += 1
                 fresh, since_fresh = True, 0
             else:  # Broyden rank-one secant update
-                s2 = float(step @ step)
-                if s2 > 0:
+                with np.errstate(over="ignore"):  # a step out to float64's range: no secant from it
+                    s2 = float(step @ step)
+                if 0 < s2 < math.inf:
                     _rank_one_update(J, r_new - r - _matvec(J, step), step / s2)
                 fresh = False
             x, r, cost = x_new, r_new, cost_new
