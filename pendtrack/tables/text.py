@@ -24,6 +24,7 @@ A Tracker export (subscripted names such as ``v_{x}``, ``θ_{r}``) is read from 
 from __future__ import annotations
 
 import csv
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import ConfigError
-from pendtrack.tables.units import ALL_UNITS, ColumnName, parse_column_name, roles
+from pendtrack.tables.units import ALL_UNITS, ColumnName, columns_hint, parse_column_name, roles
 
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
@@ -195,7 +196,38 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     # t and theta in s and rad; x and y as written (the pivot is in their units)
     values = {role: data[:, k] * (cols[i].scale if role in ("t", "theta") else 1.0)  # type: ignore[union-attr]
               for k, (role, i) in enumerate(order)}
+    if where == "header" and "theta" in found:
+        _refuse_placeholder_theta(values["theta"], cols, found, body, sep, comma)
     return raw_record(values, found, cols, "table")
+
+
+def _refuse_placeholder_theta(theta: np.ndarray, cols: list[ColumnName | None], found: dict[str, int],
+                              body: list[tuple[int, str]], sep: str | None, comma: bool) -> None:
+    """A theta column with one value in every row beside x, y columns that move is a placeholder, not an
+    angle (a tracker that wrote theta = 0 and left the angle for later): a ConfigError naming the
+    ``--columns`` that reads the positions instead."""
+    th = theta[np.isfinite(theta)]
+    xy = {c.role: i for i, c in reversed(list(enumerate(cols))) if c is not None and c.role in ("x", "y")}
+    if th.size < 2 or np.ptp(th) > 0 or set(xy) != {"x", "y"}:
+        return
+    moves = False
+    cells = [_cells(line, sep, comma) for _, line in body]
+    for role in ("x", "y"):
+        col = np.array([_number(c[xy[role]]) if xy[role] < len(c) else np.nan for c in cells])
+        col = col[np.isfinite(col)]
+        moves = moves or (col.size > 1 and np.ptp(col) > 0)
+    if not moves:
+        return
+    hint = columns_hint(cols, {"t": found["t"], **xy})
+    raise ConfigError(f"theta is {th[0]:g} in every row (no angle recorded) while x and y move: read the positions "
+                      f"with --columns {hint} (y_down if y counts image rows downwards)")
+
+
+def _number(cell: str) -> float:
+    try:
+        return float(cell)
+    except ValueError:
+        return math.nan
 
 
 def raw_record(values: dict[str, np.ndarray], found: dict[str, int], cols: list[ColumnName | None],

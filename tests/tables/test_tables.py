@@ -300,6 +300,21 @@ def test_a_git_lfs_pointer_in_place_of_a_table_is_named_as_one(tmp_path, name):
 
 
 @pytest.mark.integration
+def test_a_placeholder_theta_beside_moving_positions_names_the_columns_to_read(tmp_path):
+    # a tracker's CSV (pandas' index, time, x, y, and theta written as 0 in every row for later): read as a
+    # constant angle it was "no oscillation to fit"
+    src = tmp_path / "track.csv"
+    src.write_text("Unnamed: 0,time,x,y,theta\n" + "".join(
+        f"{i},{float(t)!r},{float(x)!r},{float(y)!r},0.0\n" for i, (t, x, y) in enumerate(zip(T, X, Y))))
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"),
+                    str(src), "theta is 0 in every row", "--columns _,t,x,y,_")
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+    # ... and the hint reads the swing
+    res = invoke("kinematics", str(src), "--columns", "_,t,x,y,_", "--out", str(tmp_path / "k"), "-q")
+    assert res.exit_code == 0, res.output
+
+
+@pytest.mark.integration
 def test_a_wide_headerless_table_gets_a_short_columns_hint(tmp_path):
     src = tmp_path / "wide.txt"
     src.write_text(_lines(*([T, THETA] + [T] * 10)))
