@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendtrack.kinematics.release import without_hold
+from pendtrack.kinematics.free_swing import free_swing
 from pendtrack.tables import PivotFit, Record, TableSpec, is_video, read_record
 
 __all__ = ["MIN_SAMPLES", "AngleSeries", "is_video", "read_angle_series", "series_from_record"]
@@ -76,8 +76,8 @@ class AngleSeries:
 
 def series_from_record(rec: Record) -> AngleSeries:
     """The usable rows of a :class:`pendtrack.tables.Record` as an :class:`AngleSeries`, from the release on
-    (a hold before it is no free swing: :func:`pendtrack.kinematics.release.without_hold`)."""
-    ok = rec.ok if rec.kind == "kinematics" else without_hold(rec.t, rec.theta, rec.ok, source=rec.source)[0]
+    to a catch (neither is a free swing: :func:`pendtrack.kinematics.free_swing.free_swing`)."""
+    ok = rec.ok if rec.kind == "kinematics" else free_swing(rec.t, rec.theta, rec.ok, source=rec.source)[0]
     return AngleSeries(t=rec.t[ok], theta=rec.theta[ok], source=rec.source, kind=rec.kind,
                        smoothed=(rec.kind == "kinematics"))
 

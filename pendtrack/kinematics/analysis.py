@@ -35,6 +35,7 @@ from pendtrack.errors import FitError
 
 MIN_TURNING_POINTS = 3
 OUTLIER_MADS = 5.0  # residuals beyond this many (scaled) MADs are dropped, then refit
+MIN_SPAN = 0.5  # the turning points kept reach half the largest |sin theta| (else a rest, not the swing, sets the slope)
 
 
 @dataclass(frozen=True)
@@ -276,6 +277,12 @@ def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
         if new.sum() == use.sum() or new.sum() < MIN_TURNING_POINTS:
             break
         use = new
+    reach = float(np.max(np.abs(x[finite])))
+    if float(np.max(np.abs(x[use]))) < MIN_SPAN * reach:
+        raise FitError(f"the turning points that agree on a slope lie within "
+                       f"{math.asin(min(1.0, float(np.max(np.abs(x[use]))))):.3g} rad of theta = 0, while the "
+                       f"swing reaches {math.asin(min(1.0, reach)):.3g} rad: too few swings above the noise to "
+                       "estimate Omega0 (does the record come to rest after a few swings?)")
     if k >= 0.0:
         raise FitError(f"alpha at the turning points does not oppose sin(theta) (slope {k:.3g} >= 0): "
                        "no restoring torque, cannot estimate Omega0")

@@ -18,7 +18,7 @@ import pandas as pd
 from pendtrack.config import KinematicsConfig
 from pendtrack.kinematics.differentiate import KinematicsError, KinematicsResult, savgol_kinematics
 from pendtrack.kinematics.initial import analyse, omega0_from_kinematics
-from pendtrack.kinematics.release import without_hold
+from pendtrack.kinematics.free_swing import free_swing
 
 log = logging.getLogger(__name__)
 
@@ -46,18 +46,21 @@ def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, op
     """:func:`savgol_kinematics` with ``[kinematics]``'s window [s], order, gap bridging and minimum
     segment; a failure names ``source``.
 
-    A hold before the release (:func:`pendtrack.kinematics.release.find_hold`) is not a free swing:
-    its samples get ``ok = False`` (their rows stay) and the derivatives start at the release, as at
-    any record's start. ``info`` gains ``held_until_s`` (the first sample after the hold [s], or None)
-    and ``n_held``.
+    A hold before the release and a catch at the end (:mod:`pendtrack.kinematics.free_swing`) are
+    no free swing: their samples get ``ok = False`` (their rows stay) and the derivatives start at
+    the release and end before the catch, as at any record's ends. ``info`` gains ``held_until_s``
+    (the first sample after the hold [s], or None), ``n_held``, ``free_until_s`` (the first sample
+    of the catch [s], or None) and ``n_caught``.
     """
-    ok, hold = without_hold(t, theta, ok, source=source)
+    ok, hold, catch = free_swing(t, theta, ok, source=source)
     try:
         kin = savgol_kinematics(t, theta, ok, window_s=options.savgol_window_s, order=options.savgol_order,
                                 max_gap_s=options.max_gap_s, min_segment_s=options.min_segment_s)
     except KinematicsError as exc:
         raise KinematicsError(str(exc), path=source) from None
-    held = {"held_until_s": None if hold is None else hold.release_s, "n_held": 0 if hold is None else hold.n}
+    held = {"held_until_s": None if hold is None else hold.release_s, "n_held": 0 if hold is None else hold.n,
+            "free_until_s": None if catch is None else catch.free_until_s,
+            "n_caught": 0 if catch is None else int(np.asarray(t).size - catch.n)}
     return replace(kin, info={**kin.info, **held})
 
 

@@ -361,6 +361,10 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
     below = (y[usable] - pivot[1]) * (1.0 if y_down else -1.0)
     if below.size and np.median(below) < 0:
         axis, other = ("down", "y") if y_down else ("up", "y_down")
+        if path.suffix.lower() == ".trk":  # a Tracker track's y points up, and no --columns applies to it
+            raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples (a "
+                                "Tracker track's y points up): give the pivot with --pivot X Y in the track's units, "
+                                "or choose the bob's track with --track", path=path)
         raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples with y "
                             f"{axis}: if the y axis points the other way, name the column {other} (e.g. "
                             f"--columns t,x,{other})", path=path)

@@ -144,6 +144,17 @@ def test_omega0_from_exact_turning_points_and_outliers() -> None:
         estimate_omega0(th, -al)
 
 
+def test_omega0_is_not_set_by_a_rest_after_a_few_swings() -> None:
+    # an encoder on a heavily damped rig (satyamchoudhary1303/MTP, 1000rpm_30deg.csv): four swings, then
+    # seconds at rest whose filtered flicker gives 20 "turning points" at the rest level with alpha ~ 0;
+    # the outlier rule kept those and dropped the swings: "Omega0 = 0.00000 +- 0.00000" from 24 points
+    rng = np.random.default_rng(2)
+    th = np.concatenate([[0.78, -0.077, 0.067, -0.019], -0.00307 + rng.normal(0.0, 1e-10, 20)])
+    al = np.concatenate([[-249.3, 91.6, -30.9, 12.2], rng.normal(0.0, 1e-6, 20)])
+    with pytest.raises(FitError, match="too few swings above the noise"):
+        estimate_omega0(th, al)
+
+
 def test_omega0_outliers_are_judged_from_the_median_residual() -> None:
     # issue #15 item 3: residuals that share an offset (alpha biased by a constant, as when theta's
     # zero is off the rest position) are not outliers; comparing |r| with the MAD dropped 13 of 14

@@ -373,6 +373,16 @@ def test_tracker_project_with_two_tracks(tmp_path):
         read_record(src, spec=TableSpec(track="mass B"))
 
 
+def test_a_tracker_track_above_its_pivot_names_the_options_that_apply(tmp_path):
+    # Algath/Physic_project_double_pendulum: a track above the pivot in most samples was told to name
+    # a column y_down with --columns, which a Tracker project refuses
+    src = tmp_path / "swing.trk"
+    src.write_text(_trk([_point_mass("mass A", X, Y, {})]))
+    with pytest.raises(ArtifactError, match=r"above the pivot .* give the pivot with --pivot X Y .* --track") as err:
+        read_record(src, spec=TableSpec(pivot=(PX, PY - 10.0)))  # a pivot 10 m below the bob's path
+    assert "--columns" not in str(err.value)
+
+
 def test_not_a_tracker_project(tmp_path):
     src = tmp_path / "other.trk"
     src.write_text('<?xml version="1.0"?>\n<object class="org.opensourcephysics.tools.DataToolTab"></object>\n')

@@ -1,0 +1,238 @@
+"""Where the free swing begins and ends: a hold before the release, a catch at the end.
+
+A record often begins before the bob is let go: a hand or a pin holds it at an angle ``theta_h``
+while the logger (Logger Pro, Tracker, an encoder) already runs. And it often ends after the bob
+is caught: the hand stops it and the logger runs on. Neither is a free swing, and no model of one
+can follow them: a standard fit of a 30-s record at 30 fps whose first 1.5 s hold the bob at 1 rad
+ended 0.44 rad rms from the data; one whose last 3 s hold it at rest after a 0.5-rad swing, 0.18 rad.
+
+**The hold.** A free pendulum at rest at ``theta_h`` accelerates at ``Omega0^2 |sin theta_h|`` and
+leaves a band ``b`` around ``theta_h`` within ``t_free = sqrt(2 b / (Omega0^2 |sin theta_h|))``. The
+leading samples are a hold when they stay within the band for longer than :data:`HOLD_FACTOR`
+``t_free`` and :data:`MIN_HOLD_S`: no free swing does. A release near the top (``sin theta_h``
+small) or a bob at rest at the bottom is left alone: there a long stay is what a free pendulum
+does too.
+
+**The catch.** The trailing samples at rest (within a band, for at least :data:`MIN_HOLD_S`, a
+period, and :data:`HOLD_FACTOR` times the time a free bob of the swing's amplitude stays within it
+at a turning point, where a record may end) are a catch when the bob swung just before with an amplitude ``A`` that its own damping could not have
+taken away within half a period: ``A`` above :data:`CATCH_FACTOR` times the amplitude it lost per
+half period over the periods before, and above :data:`CATCH_BANDS` bands. A pendulum that comes to
+rest by itself does not: Coulomb friction stops it once its amplitude is below one half period's
+loss, and viscous or quadratic drag lets it fade into the band. The catch's half period before the
+rest goes too (the hand takes part of a swing, which is no free swing either).
+
+The band is six times the noise of the samples at rest, and at least 1.5 of a quantised record's
+steps (:mod:`pendtrack.kinematics.rest`). ``Omega0`` comes from theta's strongest spectral
+peak (:func:`~pendtrack.kinematics.differentiate.dominant_period`): at large amplitude it is
+below the small-swing value, which only lengthens ``t_free`` (fewer holds, never more).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pendtrack.kinematics.differentiate import dominant_period
+from pendtrack.kinematics.rest import MIN_REST_SAMPLES, leading_rest, smallest_step
+
+log = logging.getLogger(__name__)
+
+HOLD_FACTOR = 3.0  # a hold lasts longer than 3 x the time a free bob takes to leave the band
+MIN_HOLD_S = 0.2  # ... and at least this long [s]: a free release's first samples never are a hold
+CATCH_FACTOR = 4.0  # a catch stops a swing 4 x larger than one half period's loss (a Coulomb stop: < 2.5 x)
+CATCH_BANDS = 4.0  # ... and 4 bands (24 noise sigmas) large: a swing fading into the band is no catch
+CATCH_REST_PERIODS = 1.0  # the rest after a catch lasts a period at least (a short one may be noise)
+CATCH_PERIODS = 3  # the loss per half period is measured over the 3 periods before the catch's half period
+
+
+@dataclass(frozen=True)
+class Hold:
+    """A hold found at the start of a record.
+
+    Attributes
+    ----------
+    n : int
+        Samples before the release (the first ``n`` rows are not a free swing).
+    release_s : float
+        Time of the first sample after the hold [s].
+    theta_h : float
+        The held angle [rad].
+    t_free : float
+        How long a free pendulum at ``theta_h`` would stay within the band [s].
+    """
+
+    n: int
+    release_s: float
+    theta_h: float
+    t_free: float
+
+
+@dataclass(frozen=True)
+class Catch:
+    """A catch found at the end of a record.
+
+    Attributes
+    ----------
+    n : int
+        Index of the first row that is no free swing (rows ``n`` on are not fitted).
+    free_until_s : float
+        Time of that row [s]: half a period before the rest.
+    rest_s : float
+        Time of the first sample at rest [s].
+    theta_c : float
+        The angle at rest [rad].
+    amplitude : float
+        The swing's amplitude just before the catch [rad].
+    loss : float
+        The amplitude the swing lost per half period before the catch [rad].
+    """
+
+    n: int
+    free_until_s: float
+    rest_s: float
+    theta_c: float
+    amplitude: float
+    loss: float
+
+
+def _usable(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    idx = np.flatnonzero(np.asarray(ok, dtype=bool) & np.isfinite(theta))
+    if idx.size < 4 * MIN_REST_SAMPLES:
+        return None
+    return idx, np.asarray(t, dtype=np.float64)[idx], np.asarray(theta, dtype=np.float64)[idx]
+
+
+def _first_window(tt: np.ndarray) -> int:
+    """Samples in half of :data:`MIN_HOLD_S` (at least :data:`MIN_REST_SAMPLES`): the first guess of a
+    rest's level and noise (at 120 Hz the noise of 5 samples alone is off by 4 x one time in 20)."""
+    return max(MIN_REST_SAMPLES, int(0.5 * MIN_HOLD_S / float(np.median(np.diff(tt)))))
+
+
+def find_hold(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Hold | None:
+    """The hold at the start of a record, or None.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times [s], increasing.
+    theta : ndarray
+        Angle [rad].
+    ok : ndarray of bool
+        Usable samples (the hold is looked for in the usable ones).
+
+    Returns
+    -------
+    Hold or None
+        None when the record does not start at rest, or stays there no longer than a free
+        pendulum could (module docstring).
+    """
+    usable = _usable(t, theta, ok)
+    if usable is None:
+        return None
+    idx, tt, th = usable
+    rest = leading_rest(th, smallest_step(th), _first_window(tt))
+    if rest is None:
+        return None
+    dep, level, band = rest
+    h = float(np.median(np.diff(tt)))
+    period = dominant_period(th[dep:], h)
+    accel = (2.0 * math.pi / period) ** 2 * abs(math.sin(level)) if math.isfinite(period) else 0.0
+    if not accel > 0:
+        return None
+    t_free = math.sqrt(2.0 * band / accel)
+    stay = float(tt[dep] - tt[0])
+    if stay <= max(HOLD_FACTOR * t_free, MIN_HOLD_S):
+        return None
+    return Hold(n=int(idx[dep]), release_s=float(tt[dep]), theta_h=level, t_free=t_free)
+
+
+def find_catch(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Catch | None:
+    """The catch at the end of a record, or None.
+
+    Parameters
+    ----------
+    t, theta, ok : ndarray
+        As for :func:`find_hold` (the catch is looked for in the usable samples).
+
+    Returns
+    -------
+    Catch or None
+        None when the record does not end at rest, or the swing before could have faded or
+        stopped there by itself (module docstring).
+    """
+    usable = _usable(t, theta, ok)
+    if usable is None:
+        return None
+    idx, tt, th = usable
+    rest = leading_rest(th[::-1], smallest_step(th), _first_window(tt))
+    if rest is None:
+        return None
+    n_rest, level, band = rest
+    k = th.size - n_rest  # the first sample at rest
+    if tt[-1] - tt[k] < MIN_HOLD_S:
+        return None
+    h = float(np.median(np.diff(tt)))
+    half = 0.5 * dominant_period(th[:k], h)
+    if not math.isfinite(half) or tt[-1] - tt[k] < 2.0 * half * CATCH_REST_PERIODS:
+        return None
+    end = tt[k] - half  # the swing before the catch ends here; its amplitude is measured before it
+    edges = end - 2.0 * half * np.arange(CATCH_PERIODS, -1, -1)
+    edges = edges[edges >= tt[0]]
+    if edges.size < 3:  # fewer than two periods to measure a loss on
+        return None
+    # each period's amplitude is half its peak to peak: no centre to estimate, an offset does not enter
+    inside = (tt >= edges[0]) & (tt < end)
+    period_of = np.searchsorted(edges, tt[inside], side="right") - 1
+    top = np.full(edges.size - 1, -np.inf)
+    bottom = np.full(edges.size - 1, np.inf)
+    np.maximum.at(top, period_of, th[inside])
+    np.minimum.at(bottom, period_of, th[inside])
+    swing = 0.5 * (top - bottom)
+    amplitude = float(swing[-1])
+    loss = max(float(swing[0] - swing[-1]), 0.0) / (2.0 * (swing.size - 1))
+    if amplitude <= max(CATCH_FACTOR * loss, CATCH_BANDS * band):
+        return None
+    # a record that ends at a turning point also ends at rest: no longer than a free bob stays there
+    accel = (math.pi / half) ** 2 * abs(math.sin(min(amplitude, math.pi - 1e-3)))
+    if tt[-1] - tt[k] <= HOLD_FACTOR * math.sqrt(2.0 * band / accel):
+        return None
+    n = int(np.searchsorted(tt, end))
+    return Catch(n=int(idx[n]), free_until_s=float(tt[n]), rest_s=float(tt[k]), theta_c=level,
+                 amplitude=amplitude, loss=loss)
+
+
+def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any = None
+               ) -> tuple[np.ndarray, Hold | None, Catch | None]:
+    """``ok`` with a hold's (:func:`find_hold`) and a catch's (:func:`find_catch`) samples set False.
+
+    The rows stay: nothing of the record is lost, those samples are only not a free swing. A hold
+    or catch found is logged as a warning naming ``source``.
+
+    Returns
+    -------
+    ok : ndarray of bool
+    hold : Hold or None
+    catch : Catch or None
+    """
+    t = np.asarray(t, dtype=np.float64)
+    theta = np.asarray(theta, dtype=np.float64)
+    ok = np.asarray(ok, dtype=bool).copy()
+    hold = find_hold(t, theta, ok)
+    if hold is not None:
+        ok[:hold.n] = False
+        log.warning("%s: the bob is at rest at %.3g rad until t = %.4g s, longer than a free pendulum stays there "
+                    "(%.2g s): the %d samples before are a hold, not fitted", source, hold.theta_h, hold.release_s,
+                    hold.t_free, hold.n)
+    catch = find_catch(t, theta, ok)
+    if catch is not None:
+        ok[catch.n:] = False
+        log.warning("%s: the bob is at rest at %.3g rad from t = %.4g s, half a period after swinging +- %.3g rad "
+                    "(its damping took %.2g rad per half period): it was caught; the %d samples from t = %.4g s "
+                    "are not fitted", source, catch.theta_c, catch.rest_s, catch.amplitude, catch.loss,
+                    theta.size - catch.n, catch.free_until_s)
+    return ok, hold, catch
