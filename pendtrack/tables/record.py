@@ -205,11 +205,17 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
             raw = read_text(path, spec.columns)
     except ConfigError as exc:
         raise ArtifactError(str(exc), path=path) from None
+    repeated = _drop_repeated_rows(raw)
     t, ok = raw["t"], raw["ok"]
     _check_times(t, path)
     _check_units(raw, path)
     info: dict[str, Any] = {"kind": raw["kind"], "columns": raw["labels"], "pivot": None, "resampled": None,
                             "warnings": []}
+    if repeated:
+        text = (f"{repeated} rows repeat the row before them exactly (a logger writing one sample twice): "
+                "each is read once")
+        log.warning("%s: %s", path, text)
+        info["warnings"].append(text)
     if "tracker" in raw:
         info["tracker"] = raw["tracker"]
     theta = _theta_from_xy(raw, ok, spec, pivot_fit, info, path) if raw.get("theta") is None else raw["theta"]
@@ -238,6 +244,30 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
                   provenance=raw.get("provenance"), info=info)
 
 
+def _drop_repeated_rows(raw: dict[str, Any]) -> int:
+    """Drop, in place, every row whose time and values (theta or x, y, and ``ok``) equal the row before's.
+
+    Such a row is one sample written twice: reading it once loses nothing. Returns how many were dropped.
+    """
+    t = np.asarray(raw["t"])
+    if t.size < 2:
+        return 0
+    same = (t[1:] == t[:-1]) & (np.asarray(raw["ok"])[1:] == np.asarray(raw["ok"])[:-1])
+    for key in ("theta", "x", "y"):
+        v = raw.get(key)
+        if v is not None:
+            v = np.asarray(v, dtype=np.float64)
+            same &= (v[1:] == v[:-1]) | (np.isnan(v[1:]) & np.isnan(v[:-1]))
+    if not same.any():
+        return 0
+    keep = np.concatenate([[True], ~same])
+    for key in ("t", "ok", "theta", "x", "y"):
+        if raw.get(key) is not None:
+            raw[key] = np.asarray(raw[key])[keep]
+    raw["columns"] = {name: np.asarray(v)[keep] for name, v in raw["columns"].items()}
+    return int(same.sum())
+
+
 def _check_times(t: np.ndarray, path: Path) -> None:
     """Finite, strictly increasing times: the only times that are refused are unusable ones."""
     bad = np.flatnonzero(~np.isfinite(t))
@@ -246,7 +276,9 @@ def _check_times(t: np.ndarray, path: Path) -> None:
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0))
-        what = "a repeated time" if steps[i] == 0 else "time going back"
+        n_same = int(np.count_nonzero(steps == 0))
+        what = ("time going back" if steps[i] < 0 else "a repeated time" if n_same == 1 else
+                f"a repeated time (one of {n_same})")
         raise ArtifactError(f"times must increase strictly: {what}, t[{i + 1}] = "
                             f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s", path=path)
 

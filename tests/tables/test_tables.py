@@ -271,6 +271,24 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_a_sample_written_twice_is_read_once(tmp_path):
+    # an encoder logger (satyamchoudhary1303/MTP, "-10 deg angle log.csv") writes some samples two to four
+    # times, time and angle alike: refused at "a repeated time" although nothing in it is ambiguous
+    rows = np.repeat(np.arange(T.size), np.where(np.arange(T.size) % 7 == 3, 3, 1))  # every 7th row thrice
+    src = tmp_path / "log.csv"
+    src.write_text("Timestamp (s),Angle (rad)\n" + _lines(T[rows], THETA[rows], sep=","))
+    rec = read_record(src)
+    np.testing.assert_array_equal(rec.t, T)
+    np.testing.assert_array_equal(rec.theta, THETA)
+    assert any(f"{rows.size - T.size} rows repeat the row before them exactly" in w for w in rec.info["warnings"])
+    t = T[rows].copy()
+    theta = THETA[rows].copy()
+    theta[4] += 0.01  # a time repeated with another angle: which sample is at t? refused, naming it
+    src.write_text("Timestamp (s),Angle (rad)\n" + _lines(t, theta, sep=","))
+    with pytest.raises(ArtifactError, match=r"a repeated time \(one of 2\), t\[4\]"):
+        read_record(src)
+
+
 @pytest.mark.integration
 def test_a_record_laid_out_in_rows_is_named_in_one_short_line(tmp_path):
     # a logger's export with one row of times [ms] and one of angles [deg] (1477 values each): the
