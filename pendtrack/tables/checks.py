@@ -4,8 +4,9 @@ A pendulum constrains what its record can look like, and that tells a wrong unit
 
 * **theta not in radians**: a pendulum that turns back cannot sweep more than a full turn
   between two turning points, so a larger swing is degrees (``Angle`` of an encoder log, a
-  Tracker ``θ``); so is a record that never turns back yet reaches beyond
-  :data:`FAR_TURNS` full turns (a rotating pendulum then needs its unit declared).
+  Tracker ``θ``); nor can one released from rest sweep more than a full turn to its first
+  turning point (it never passes the top); so is a record that never turns back yet reaches
+  beyond :data:`FAR_TURNS` full turns (a rotating pendulum then needs its unit declared).
 * **time not in seconds**: a pendulum's period is between :data:`PERIOD_RANGE_S` (a
   period of 100 s is a 2.5 km pendulum); a record whose oscillation is slower in the time
   column's numbers is in ms or µs, as is one sampled more than :data:`MAX_STEP_S` apart.
@@ -23,6 +24,7 @@ import numpy as np
 
 TURN = 2.0 * math.pi  # no swing between two turning points exceeds a full turn
 FAR_TURNS = 2.0  # a record without two turning points beyond this many turns is not in rad
+AT_REST_STEP = 0.5  # a record starts at rest when its first step is under half its largest before turning back
 CENTRE_WARN_RAD = 0.5  # an oscillation centred further than this from 0 (mod 2 pi) looks like a position
 ZIGZAG_FRACTION = 0.1  # a turning point is confirmed after a retreat of this share of the 1-99 % range
 ZIGZAG_MAX_SAMPLES = 20000  # the turning-point search runs on at most this many samples (decimated)
@@ -71,6 +73,10 @@ def turning_values(theta: np.ndarray) -> np.ndarray:
 
 def theta_not_radians(theta: np.ndarray) -> str | None:
     """Why an angle series read in rad cannot be in rad (a sentence), or None if it can be."""
+    travel = _travel_from_rest(theta)
+    if travel is not None and travel > TURN:
+        return (f"theta moves by {travel:.4g} from its start at rest to its first turning point, more than a full "
+                "turn (2 pi rad), which no pendulum released from rest does: not radians, it looks like degrees")
     ext = turning_values(theta)
     if ext.size >= 2:
         swing = float(np.max(np.abs(np.diff(ext))))
@@ -83,6 +89,20 @@ def theta_not_radians(theta: np.ndarray) -> str | None:
         return (f"theta reaches {float(np.max(np.abs(finite))):.4g} without turning back twice, beyond "
                 f"{FAR_TURNS:g} full turns: not radians, it looks like degrees")
     return None
+
+
+def _travel_from_rest(theta: np.ndarray) -> float | None:
+    """How far theta moves from its first sample to its first turning point when it starts at rest
+    (its first step under :data:`AT_REST_STEP` of the largest before the turning point); else None."""
+    x = np.asarray(theta, float)
+    x = x[np.isfinite(x)]
+    turns = turning_points(x)
+    if turns.size == 0 or turns[0] < 3:
+        return None
+    steps = np.abs(np.diff(x[:turns[0] + 1]))
+    if not steps[0] < AT_REST_STEP * float(steps.max()):
+        return None
+    return float(abs(x[turns[0]] - x[0]))
 
 
 def time_not_seconds(t: np.ndarray, signal: np.ndarray) -> tuple[str, str] | None:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from factory import swing
 from scipy.interpolate import CubicSpline
 
 from pendtrack.artifacts import read_artifact
@@ -416,3 +417,19 @@ def test_unit_checks_without_turning_points():
     assert time_not_seconds(t * 1200.0, spin) == ("the time column has a sample step of 20, too long for seconds",
                                                   "ms")
     assert time_not_seconds(t, spin) is None
+
+
+def test_a_release_from_rest_that_travels_beyond_a_turn_is_degrees():
+    from pendtrack.tables.checks import theta_not_radians
+
+    # an encoder on a heavily damped rig (satyamchoudhary1303/MTP, 600_10deg.csv, "Time, Angle" in degrees):
+    # released from rest at 10.7, through -6.15 and back to rest at -2.64 with no second turning point; read
+    # in rad it passed every check (one turning point, under two turns)
+    angle = np.array([10.7227, 9.4043, 5.9766, 1.6699, -2.0215, -4.6582, -6.0645, -6.1523, -5.4492, -4.5703,
+                      -3.7793, -3.1641, -2.6367, -2.4609, -2.373, -2.4609] + [-2.6367] * 60)
+    assert "from its start at rest to its first turning point" in (theta_not_radians(angle) or "")
+    assert theta_not_radians(np.radians(angle)) is None
+    # released from rest just below the top, in rad: it travels less than a full turn before turning back
+    _, theta = swing("standard", {"Omega0": 6.0, "C1": 0.01, "C0": 0.01, "C2": 0.01}, seconds=10.0,
+                     theta0=math.pi - 0.01, fps=120.0, noise=0.003)
+    assert theta_not_radians(theta) is None
