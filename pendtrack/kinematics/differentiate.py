@@ -121,6 +121,25 @@ def dominant_period(theta: np.ndarray, h: float) -> float:
     return math.inf if freqs[k] <= 0 else 1.0 / freqs[k]
 
 
+def swing_period(theta: np.ndarray, h: float) -> float:
+    """The swing's period [s] of a uniformly sampled theta: its spectral peak (:func:`dominant_period`),
+    or twice the median time between its turning points when that is under half the peak's period.
+
+    A record that stops after a few swings and rests for seconds (an encoder on a heavily damped
+    rig) has its spectral peak at the rest's step; its turning points (a zigzag with a tenth of the
+    range as hysteresis, :func:`pendtrack.tables.checks.turning_points`) still space half periods.
+    """
+    from pendtrack.tables.checks import turning_points
+
+    period = dominant_period(theta, h)
+    turns = turning_points(theta)
+    if turns.size >= 2:
+        spaced = 2.0 * h * float(np.median(np.diff(turns)))
+        if spaced < 0.5 * period:
+            return spaced
+    return period
+
+
 def _check_inputs(t: Any, theta: Any, ok: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     t = np.asarray(t, dtype=np.float64)
     theta = np.asarray(theta, dtype=np.float64)
@@ -220,7 +239,7 @@ def savgol_kinematics(t: Any, theta: Any, ok: Any = None, *, window_s: float = K
     clipped = False
     if longest.size >= 4 * n_win:
         grid = np.arange(t[longest[0]], t[longest[-1]] + 0.5 * h, h)
-        period = dominant_period(np.interp(grid, t[longest], theta[longest]), h)
+        period = swing_period(np.interp(grid, t[longest], theta[longest]), h)
         limit = MAX_WINDOW_PERIOD_FRACTION * period
         if n_win * h > limit:
             new = window_points(limit, h, order)

@@ -105,6 +105,19 @@ def test_window_longer_than_a_quarter_period_is_clipped() -> None:
     assert not savgol_kinematics(t, paper_like, window_s=25 / FPS).info["window_clipped"]
 
 
+def test_a_window_longer_than_the_swing_is_clipped_when_the_record_then_rests() -> None:
+    # an encoder on a heavily damped rig (MTP): three swings of 0.19 s at 39 Hz, then 2.5 s at rest in
+    # 0.09-deg steps; the spectral peak sat at the record's length (3 s), so the 0.23-s window stayed
+    from factory import swing
+
+    t, th = swing("standard", {"Omega0": 33.0, "C1": 12.0, "C0": 0.0, "C2": 0.0}, seconds=3.0, theta0=0.5, fps=39.0)
+    th = math.radians(0.0879) * np.round(th / math.radians(0.0879))
+    k = savgol_kinematics(t, th, window_s=0.23)
+    # the damped period 2 pi / sqrt(33^2 - 6^2) = 0.194 s, from 2 turning points 4 samples apart: 0.205 s
+    # a quarter of it is 1.3 samples: clipped to the fewest points a cubic takes (5)
+    assert k.info["window_clipped"] and k.info["window_points"] == 5
+
+
 @pytest.mark.parametrize(
     ("t", "theta", "ok", "pattern"),
     [
