@@ -19,6 +19,8 @@ from pendtrack.errors import FitError
 from pendtrack.kinematics import savgol_uniform, window_points
 
 UNIFORM_RTOL = 1e-6  # spacing spread below which a record counts as uniform (as pendtrack.models)
+MIN_TRAINING = 100  # samples fitted: the few periods a fit of the baseline and a candidate need
+MIN_HELDOUT = 50  # samples held out: enough to judge a prediction error against the noise
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,9 +123,11 @@ def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: flo
     win = window_points(savgol_window_s, h, savgol_order)
     _, omega, alpha = savgol_uniform(theta, h=h, window=win, order=savgol_order)
     t_split = float(t[0] + train_fraction * (t[-1] - t[0]))
-    if np.count_nonzero(t > t_split) < 50 or np.count_nonzero(t <= t_split) < 100:
-        raise FitError(f"record too short for a training part and a held-out part ({t.size} samples)",
-                       path=series.source)
+    n_train, n_held = np.count_nonzero(t <= t_split), np.count_nonzero(t > t_split)
+    if n_held < MIN_HELDOUT or n_train < MIN_TRAINING:
+        raise FitError(f"record too short for a training part and a held-out part ({t.size} samples: "
+                       f"{n_train} to train on and {n_held} held out at {1.0 / h:.4g} Hz; discovery needs at least "
+                       f"{MIN_TRAINING} and {MIN_HELDOUT})", path=series.source)
     return AnalysisData(t=t, theta=theta, omega=omega, alpha=alpha, t_split=t_split, savgol_window=win,
                         savgol_order=savgol_order, smoothed=series.smoothed, decimation=k,
                         interpolated=interpolated, source=str(series.source))

@@ -367,6 +367,19 @@ def test_off_diagnostics_uses_each_limit():
         "excess_rms", "harmonic_line", "offset"]
 
 
+def test_a_record_too_short_to_hold_out_says_what_discovery_needs():
+    from pendtrack.discovery.data import MIN_HELDOUT, MIN_TRAINING, prepare
+    from pendtrack.discovery.inputs import AngleSeries
+    from pendtrack.errors import FitError
+
+    # an encoder log of 130 samples at 39 Hz (users' files): "(130 samples)" left the user to guess
+    t = np.arange(130) / 39.0
+    series = AngleSeries(t, 0.5 * np.cos(33.0 * t), source="log.csv", kind="table")  # type: ignore[arg-type]
+    with pytest.raises(FitError, match=rf"130 samples: 78 to train on and 52 held out at 39 Hz; discovery needs at "
+                                       rf"least {MIN_TRAINING} and {MIN_HELDOUT}"):
+        prepare(series, analysis_rate_hz=0.0, train_fraction=0.6, savgol_window_s=0.1, savgol_order=3)
+
+
 @pytest.mark.parametrize("rate_hz", [30.0, 120.0])
 def test_low_rate_records_keep_the_filter_and_memory_durations(rate_hz):
     from pendtrack.config import Config
