@@ -35,6 +35,10 @@ from pendtrack.errors import FitError
 
 MIN_TURNING_POINTS = 3
 OUTLIER_MADS = 5.0  # residuals beyond this many (scaled) MADs are dropped, then refit
+# omega's sign below 1e-4 of its largest |omega| is no swing (one 1e-4 of the largest is below any
+# record's precision), but a cubic spline's ringing after a bob stops: a jittered encoder log put on a
+# grid gave 157 such "turning points" at the rest beside 81 real ones
+OMEGA_FLOOR = 1e-4
 MIN_SPAN = 0.5  # the turning points kept reach half the largest |sin theta| (else a rest, not the swing, sets the slope)
 
 
@@ -110,8 +114,8 @@ def turning_points(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: n
     is a change between two consecutive non-zero states; it is placed at the last sign
     change of omega between them, linearly interpolated. With ``threshold = 0`` every
     sign change of omega is one (a sample exactly at 0 that omega leaves on the side it
-    came from is no turning point); a threshold of a few times the noise of omega keeps
-    noise from making extra ones.
+    came from is no turning point) down to :data:`OMEGA_FLOOR` of the largest ``|omega|``;
+    a threshold of a few times the noise of omega keeps noise from making extra ones.
 
     Parameters
     ----------
@@ -146,6 +150,8 @@ def turning_points(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, alpha: n
     if ok is not None:
         good &= np.asarray(ok, dtype=bool)
     seg = np.zeros(t.size, dtype=np.int64) if segment is None else np.asarray(segment, dtype=np.int64)
+    if good.any():
+        threshold = max(threshold, OMEGA_FLOOR * float(np.max(np.abs(omega[good]))))
     state = np.zeros(t.size, dtype=np.int64)
     state[good & (omega > threshold)] = 1
     state[good & (omega < -threshold)] = -1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -103,6 +104,34 @@ def test_window_longer_than_a_quarter_period_is_clipped() -> None:
     assert k.info["window_clipped"] and k.info["window_s"] <= 0.25 * 0.5 + 1e-9
     paper_like = 0.5 * np.sin(2 * np.pi * t / 1.24)  # Omega0 = 5.05 rad/s: the paper's window is 17 % of T
     assert not savgol_kinematics(t, paper_like, window_s=25 / FPS).info["window_clipped"]
+
+
+@pytest.mark.integration
+def test_a_jittered_encoder_log_that_comes_to_rest(tmp_path) -> None:
+    # an Arduino encoder log: 20 Hz with +-10 ms of jitter, quarter-degree steps, a Coulomb stop at 46 s of 60.
+    # Put on a grid by a cubic spline, its rest rings: 157 sign flips of omega beside 81 real turning points,
+    # and eq. straightline gave Omega0 = 19.9 +- 0.00000 (truth 4.5); then "no oscillation to fit"
+    from factory import swing
+    from scipy.interpolate import CubicSpline
+
+    fine_t, fine = swing("standard", {"Omega0": 4.5, "C1": 0.0, "C0": 0.06, "C2": 0.0}, seconds=60.0, theta0=0.4,
+                         fps=200.0)
+    t = np.arange(0.0, 59.9, 0.05) + np.random.default_rng(1).uniform(-0.01, 0.01, 1198)
+    t[0] = 0.0
+    step = math.radians(0.25)
+    theta = step * np.round(CubicSpline(fine_t, fine)(t) / step)
+    src = tmp_path / "encoder.txt"
+    src.write_text("Time (s)\tAngle (deg)\n" + "".join(f"{a:.4f}\t{math.degrees(b):.4f}\n" for a, b in zip(t, theta)))
+    res = CliRunner().invoke(cli, ["kinematics", str(src), "--out", str(tmp_path / "k"), "-q"])
+    assert res.exit_code == 0, res.output
+    facts = read_artifact(tmp_path / "k" / "kinematics.parquet", "kinematics").provenance.extra
+    # eq. straightline on quarter-degree turning points of a Coulomb swing: within 3 of its standard errors
+    assert facts["n_turning_points"] < 90 and abs(facts["Omega0"] - 4.5) < 3 * facts["Omega0_stderr"]
+    res = CliRunner().invoke(cli, ["fit", str(src), "--model", "standard", "--starts", "4", "--workers", "1",
+                                   "--out", str(tmp_path / "f"), "-q"])
+    assert res.exit_code in (0, 1), res.output  # C1 and C2 are absent from the truth: flagged or not, it fits
+    fit = json.loads((tmp_path / "f" / "fit_standard.json").read_text())
+    assert abs(fit["params"]["Omega0"]["value"] - 4.5) < 5 * fit["params"]["Omega0"]["stderr"] + 1e-4
 
 
 def test_a_window_longer_than_the_swing_is_clipped_when_the_record_then_rests() -> None:
