@@ -547,7 +547,17 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
     aic = n * math.log(xi2) + 2 * k if xi2 > 0 else -math.inf
     bic = n * math.log(xi2) + k * math.log(n) if xi2 > 0 else -math.inf
     follows = rms <= 0.5 * float(np.std(problem.theta))
-    cov_ok = bool(np.all(np.isfinite(unc.stderr)))
+    floors = {n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names}
+    t_end = float(problem.t[-1])
+    flags, findings = split_findings(
+        tuple(getattr(model, "physical_terms", ())), names, x, unc.stderr, problem.lower,
+        plausibility_flags(names, x, unc.stderr_judged, problem.lower, problem.upper, t_start=problem.t_start,
+                           t_end=t_end,
+                           floors=floors, nuisance=_measurement_params(model)),
+        t_start=problem.t_start, t_end=t_end)
+    # a parameter of an absent term (a finding) may have no standard error (the exponent of a power drag
+    # at C3 = 0 changes nothing): the fit is judged on the others
+    cov_ok = bool(all(math.isfinite(float(se)) for nm, se in zip(names, unc.stderr) if nm not in findings))
     converged = bool(best.success and cov_ok and follows)
     reasons = []
     if not best.success:
@@ -560,14 +570,6 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
     if not unc.reliable and cov_ok:
         notes.append(f"standard errors unreliable: they change by a factor {math.exp(unc.step_spread):.2g} with the "
                      "finite-difference step (the solver is not smooth in the parameters)")
-    floors = {n: _floor(model, n, setup.summary.omega0_hat) for n in names if n in model.param_names}
-    t_end = float(problem.t[-1])
-    flags, findings = split_findings(
-        tuple(getattr(model, "physical_terms", ())), names, x, unc.stderr, problem.lower,
-        plausibility_flags(names, x, unc.stderr_judged, problem.lower, problem.upper, t_start=problem.t_start,
-                           t_end=t_end,
-                           floors=floors, nuisance=_measurement_params(model)),
-        t_start=problem.t_start, t_end=t_end)
     start_costs = found.costs.copy()
     start_costs[found.best_position] = best.cost if np.isfinite(best.cost) else np.inf  # the refined best
 

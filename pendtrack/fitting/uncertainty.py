@@ -51,6 +51,7 @@ if TYPE_CHECKING:
 
 HAC_KERNELS = ("toeplitz", "bartlett")
 SMOOTH_RATIO = 1.3  # the sandwich may change by this factor when the finite-difference steps grow 10x
+NULL_COLUMN = 1e-12  # a Jacobian column this much weaker than the strongest changes no residual (an absent term)
 
 
 def paper_uncertainty(xs: np.ndarray, costs: np.ndarray, accept_ratio: float) -> tuple[np.ndarray, np.ndarray]:
@@ -177,11 +178,31 @@ def hac_covariance(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = 
     -------
     cov : ndarray, shape (p, p)
         Covariance of the fitted vector [parameter units squared]; NaN if ``J^T J`` is singular.
+        A parameter whose Jacobian column is exactly zero changes no residual (a power drag's
+        exponent when its amplitude is 0): its row and column are NaN, and the others' covariance
+        is that of the fit without it (with it, ``J^T J`` is singular and every entry was NaN).
     lag : int
         The lag used.
     """
-    meat, lag = hac_meat(jac, r, n, lag=lag, kernel=kernel, min_flat=min_flat)
-    return sandwich(jac.T @ jac, meat), lag
+    live = _live_columns(jac)
+    meat, lag = hac_meat(jac[:, live], r, n, lag=lag, kernel=kernel, min_flat=min_flat)
+    if live.all():
+        return sandwich(jac.T @ jac, meat), lag
+    cov = np.full((jac.shape[1], jac.shape[1]), np.nan)
+    cov[np.ix_(live, live)] = sandwich(jac[:, live].T @ jac[:, live], meat)
+    return cov, lag
+
+
+def _live_columns(jac: np.ndarray) -> np.ndarray:
+    """Columns of ``jac`` that change the residuals: norm above :data:`NULL_COLUMN` of the largest.
+
+    An absent term's parameter gives an exactly zero column by finite differences and a round-off
+    one (1e-300) by forward sensitivities; no parameter of a determined fit is 1e12 times weaker.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.linalg.norm(np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0), axis=0)
+    top = float(norms.max()) if norms.size else 0.0
+    return norms > NULL_COLUMN * top if top > 0 else np.ones(jac.shape[1], dtype=bool)
 
 
 def filter_support(problem: FitProblem) -> int:
@@ -550,7 +571,7 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     # smoothness check: the sandwich of the parameters inside their bounds, with 10x larger steps,
     # must agree (it does for smooth solvers; a solver that is rough in the parameters makes
     # local standard errors mean little)
-    inner = (x > problem.lower) & (x < problem.upper)
+    inner = (x > problem.lower) & (x < problem.upper) & _live_columns(jac)  # a null column has no error
     step_spread = 0.0
     if inner.any():
         se_in, _ = hac_covariance(jac[:, inner], r, problem.n, lag=lag)

@@ -80,13 +80,19 @@ def lens_check_of_track(df: pd.DataFrame, ok: np.ndarray, track_extra: Mapping[s
                       projection=projection, fov_deg=fov, fixed_pixels=fixed, ratio=ratio)
 
 
-def _in_frame(x: float, y: float, track_extra: Mapping[str, Any]) -> bool:
-    """Is ``(x, y)`` [px] inside the track's video frame (False when the track does not record its size)?"""
+def _in_frame(x: float, y: float, track_extra: Mapping[str, Any], *, sx: float = 0.0, sy: float = 0.0) -> bool:
+    """Could ``(x, y)`` [px], within ``2 sx`` and ``2 sy``, be inside the track's video frame?
+
+    The margins count only when they are smaller than the frame (an axle known no better than the
+    frame's size is nowhere a user could point to). False when the track does not record its size.
+    """
     video = track_extra.get("video") or {}
     try:
-        return 0 <= x < float(video["width"]) and 0 <= y < float(video["height"])
+        width, height = float(video["width"]), float(video["height"])
     except (KeyError, TypeError, ValueError):
         return False
+    mx, my = (2.0 * sx, 2.0 * sy) if 2.0 * sx < width and 2.0 * sy < height else (0.0, 0.0)
+    return -mx <= x < width + mx and -my <= y < height + my
 
 
 def lens_was_named(track_config: Mapping[str, Any]) -> bool:
@@ -190,11 +196,12 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
                        "zero_sigma_rad": sx / circle.radius if circle.radius > 0 else np.inf}
         if not scale_rel <= MAX_SCALE_REL:
             if span < MIN_ARC_SPAN_DEG:
-                in_frame = _in_frame(circle.xc, circle.yc, track_extra)
+                # a flat arc's centre is uncertain: suggest --axle where the axle may well be in view
+                in_frame = _in_frame(circle.xc, circle.yc, track_extra, sx=sx, sy=sy)
                 raise TrackingError(
                     f"the marker's arc spans {span:.1f} deg and bends too little to locate the axle (radius "
                     f"{circle.radius:.0f} +- {sr:.0f} px): film a wider swing or more swings"
-                    + (", or pass --axle X,Y" if in_frame else ""), path=source)
+                    + (", or pass --axle X,Y (the axle's pixel, if it is in view)" if in_frame else ""), path=source)
             raise TrackingError(
                 f"the track is no arc about one axle (circle residual {circle.rms:.1f} px rms, radius "
                 f"{circle.radius:.0f} +- {sr:.0f} px): the tracked point is not the bob, or the bob swings out "

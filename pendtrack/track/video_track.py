@@ -225,7 +225,8 @@ def track_video(frames: Iterable[Any], *, info: VideoInfo, config: Config, sourc
         acq = result.acquisition
         found = f", found at {acq['t']:.3f} s" if acq["row"] else ""
         raise TrackingError(f"marker lost in {n_after - int(result.ok.sum())} of {n_after} frames{found} "
-                            f"(best scores below min_score {params.min_score}); try --roi or --min-score",
+                            f"(best scores below min_score {params.min_score}); try "
+                            + ("a lower --min-score" if config.track.roi else "--roi or --min-score"),
                             path=source)
     swing = swing_of_track(result.t, result.x, result.y, result.ok)
     if not swing.swings:

@@ -185,6 +185,24 @@ def test_the_memory_term_as_an_added_mass_flags_omega0():
     assert "Omega0" not in flags(loose, loose_se)
 
 
+@pytest.mark.integration
+def test_a_swing_without_damping_fits_classic_with_every_term_absent(tmp_path):
+    # a clock's pendulum, kept at constant amplitude by its escapement (KatieButler/Non-Linear's pendulum.MOV):
+    # classic put C0, C3 and Ca at 0, where the power drag's exponent p changes no residual; J^T J was
+    # singular, so the fit was "NOT CONVERGED" with Omega0 +- n/a, though the data fix Omega0 well
+    t, theta = swing("standard", {"Omega0": 5.5, "C1": 0.0, "C0": 0.0, "C2": 0.0}, seconds=7.0, theta0=0.06, fps=30.0,
+                     noise=0.001, seed=3)
+    src = tmp_path / "clock.txt"
+    src.write_text("t theta\n" + "".join(f"{a!r} {b!r}\n" for a, b in zip(t.tolist(), theta.tolist())))
+    res = _invoke("fit", src, "--model", "classic", "--starts", "8", "--workers", "1", "-q", "--out", tmp_path / "f")
+    assert res.exit_code == 0, res.output
+    fit = json.loads((tmp_path / "f" / "fit_classic.json").read_text())
+    assert fit["converged"] and fit["flags"] == {} and {"C0", "C3", "p", "Ca"} <= set(fit["findings"])
+    omega0 = fit["params"]["Omega0"]
+    assert omega0["stderr"] is not None and abs(omega0["value"] - 5.5) < 3.0 * omega0["stderr"]
+    assert fit["params"]["p"]["stderr"] is None  # the exponent of an absent drag has no error
+
+
 def test_fit_problems_from_facts():
     facts = {"models": {"a": {"message": "singular"}}, "not_converged": ["a"],
              "flagged": {"a": {"p": "x"}, "b": {"t0": "far before the record"}}}

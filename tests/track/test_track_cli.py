@@ -179,9 +179,13 @@ def test_marker_that_never_reappears_is_an_error(tmp_path):
     video = tmp_path / "gone.mp4"
     write_swing_video(video, width=160, height=120, n_frames=30, radius=6, pivot=(80, 20), arm=60,
                       hide=(3, 30))
-    with pytest.raises(TrackingError, match="marker lost in 27 of 30 frames"):
+    with pytest.raises(TrackingError, match="marker lost in 27 of 30 frames.*try --roi or --min-score"):
         track_stage(video, out_dir=tmp_path, config=Config(), progress=False)
     assert not (tmp_path / "track.parquet").exists()
+    # with --roi given already (jamessos/pendulumTracker's sample.MP4), only --min-score is left to try; the
+    # box is the bob's at t = 0: (80 + 60 sin 0.8, 20 + 60 cos 0.8) = (123, 62)
+    with pytest.raises(TrackingError, match=r"marker lost in .* try a lower --min-score$"):
+        track_stage(video, out_dir=tmp_path, config=Config().replace("track", roi=(115, 54, 16, 16)), progress=False)
 
 
 def test_bad_flags_are_one_line_errors(tmp_path, pink_video):
@@ -202,6 +206,19 @@ def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outs
     res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
     one_line_error(res, "bends too little to locate the axle", "film a wider swing")
     assert "--axle" not in res.output  # the axle is far outside the frame: nobody can type it
+    assert not (tmp_path / "angle.parquet").exists()
+
+
+def test_a_flat_arc_whose_axle_may_be_in_view_names_axle(tmp_path):
+    # KatieButler/Non-Linear's pendula.mp4: a 5-deg arc whose fitted axle (y = -41 +- 32 px) fell just above the
+    # frame, while the real one is in view at y = 20: the error said only "film a wider swing"
+    video = tmp_path / "flat.mp4"
+    write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -20), arm=115,
+                      amplitude=0.05, period_s=0.5)
+    cfg = Config().replace("lens", projection="none")
+    track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
+    res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
+    one_line_error(res, "bends too little to locate the axle", "or pass --axle X,Y")
     assert not (tmp_path / "angle.parquet").exists()
 
 

@@ -85,7 +85,9 @@ class LMResult:
 
 
 def _tiny(step: np.ndarray, x: np.ndarray, scale: np.ndarray, xtol: float) -> bool:
-    return float(np.linalg.norm(step * scale)) <= xtol * (float(np.linalg.norm(x * scale)) + xtol)
+    # a step that overflowed (inf x 0 scale) is no tiny step, and no warning for the user
+    with np.errstate(invalid="ignore", over="ignore"):
+        return float(np.linalg.norm(step * scale)) <= xtol * (float(np.linalg.norm(x * scale)) + xtol)
 
 
 ACC_MAX = 0.75  # largest accepted ratio 2 |a| / |v| of geodesic acceleration to velocity (Transtrum)
