@@ -196,30 +196,29 @@ def test_bad_flags_are_one_line_errors(tmp_path, pink_video):
     one_line_error(invoke("angle", tmp_path / "none.parquet", "--axle", "1", "--out", tmp_path), "--axle")
 
 
+def _angle_of_a_flat_arc(tmp_path, *, pivot_y: float, arm: float, amplitude: float):
+    """``pendtrack angle`` on the track of a small swing about an axle at (80, ``pivot_y``) px, 160x120 frames."""
+    video = tmp_path / "flat.mp4"
+    write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, pivot_y), arm=arm,
+                      amplitude=amplitude, period_s=0.5)
+    track_stage(video, out_dir=tmp_path, config=Config().replace("lens", projection="none"), progress=False)
+    res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
+    assert not (tmp_path / "angle.parquet").exists()
+    return res
+
+
 def test_an_arc_that_bends_within_the_noise_names_the_condition_not_a_pixel_outside_the_frame(tmp_path):
     # +-0.02 rad on a 480 px arm, the axle 400 px above the frame: the arc's sagitta (0.1 px) is below the noise
-    video = tmp_path / "short.mp4"
-    write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -400), arm=480,
-                      amplitude=0.02, period_s=0.5)
-    cfg = Config().replace("lens", projection="none")
-    track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
-    res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
+    res = _angle_of_a_flat_arc(tmp_path, pivot_y=-400, arm=480, amplitude=0.02)
     one_line_error(res, "bends too little to locate the axle", "film a wider swing")
     assert "--axle" not in res.output  # the axle is far outside the frame: nobody can type it
-    assert not (tmp_path / "angle.parquet").exists()
 
 
 def test_a_flat_arc_whose_axle_may_be_in_view_names_axle(tmp_path):
     # KatieButler/Non-Linear's pendula.mp4: a 5-deg arc whose fitted axle (y = -41 +- 32 px) fell just above the
     # frame, while the real one is in view at y = 20: the error said only "film a wider swing"
-    video = tmp_path / "flat.mp4"
-    write_swing_video(video, width=160, height=120, n_frames=80, radius=6, pivot=(80, -20), arm=115,
-                      amplitude=0.05, period_s=0.5)
-    cfg = Config().replace("lens", projection="none")
-    track_stage(video, out_dir=tmp_path, config=cfg, progress=False)
-    res = invoke("angle", tmp_path / "track.parquet", "--out", tmp_path)
+    res = _angle_of_a_flat_arc(tmp_path, pivot_y=-20, arm=115, amplitude=0.05)
     one_line_error(res, "bends too little to locate the axle", "or pass --axle X,Y")
-    assert not (tmp_path / "angle.parquet").exists()
 
 
 def test_a_short_arc_with_the_axle_out_of_frame_gives_theta_with_its_uncertainty(tmp_path, caplog):
