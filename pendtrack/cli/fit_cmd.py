@@ -135,7 +135,8 @@ def echo_fit_summary(facts: dict[str, Any]) -> None:
     for name, f in (facts.get("models") or {}).items():
         click.echo(f"{name}: {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
                    f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
-                   f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s, "
+                   f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s"
+                   f"{'' if f.get('stderr_reliable', True) else ' (errors unreliable: the solver is not smooth there)'}, "
                    f"{offset_text(f)}BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
 
 

@@ -317,7 +317,7 @@ def _model_facts(r: FitResult) -> dict[str, Any]:
             "Omega0": param("Omega0", "value"), "Omega0_stderr": param("Omega0", "stderr"),
             "fitted_model": r.model,
             "theta_off": param("theta_off", "value"), "theta_off_stderr": param("theta_off", "stderr"),
-            "runtime_s": _num(r.runtime_s), "message": r.message}
+            "runtime_s": _num(r.runtime_s), "message": r.message, "stderr_reliable": bool(r.stderr_reliable)}
 
 
 def fit_curves(results: Mapping[str, FitResult], model_objs: Mapping[str, Any], t: np.ndarray,

@@ -104,7 +104,7 @@ def fit_stage(kinematics: str | Path, *, out_dir: str | Path, config: Config, mo
         ``paths``: fit.json, fit.parquet, then the per-model files. ``facts``: ``models``
         (per model: converged, trustworthy, flags, findings, n_starts, xi2_min,
         rms, bic, Omega0, Omega0_stderr, fitted_model, theta_off, theta_off_stderr (None
-        without the offset term), runtime_s, message), ``not_converged``, ``flagged`` (model ->
+        without the offset term), runtime_s, message, stderr_reliable), ``not_converged``, ``flagged`` (model ->
         flags), ``selected``, ``files``, ``zero_reference``.
 
     Raises

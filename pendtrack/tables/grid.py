@@ -13,6 +13,14 @@ times are errors (by the caller). Three cases, decided by :func:`uniform_grid`:
   (:func:`resample_irregular`); a spacing above :data:`IRREGULAR_GAP_STEPS` steps is a gap
   whose grid points are missing rows.
 
+  A **change-driven** log (:func:`change_count`: an encoder logger that writes a row each time its
+  count changes, so every row moves one or two counts) is irregular with a meaning: a long spacing
+  is the bob dwelling within one count near a turning point, not a missing sample, and each row's
+  time is when the bob crossed the edge between two counts. Its rows are taken at that edge
+  (:func:`at_count_edges`: half a count back against the motion, the same angle whichever way the
+  bob crossed it) and only a spacing over which the count moved more than
+  :data:`CHANGE_GAP_COUNTS` counts (changes the logger missed) is a gap.
+
 Cubic rather than linear: a pendulum record has tens of samples per period, where a cubic's
 error (order h^4) is far below the tracking noise while linear interpolation flattens every
 turning point by order h^2. The error is stated (:func:`spline_error_bound`): for a cubic
@@ -40,6 +48,10 @@ IRREGULAR_GAP_STEPS = 3.0  # irregular times: a spacing longer than this many me
 MIN_RUN = 4  # a cubic spline needs this many samples; shorter runs give no grid points
 HALL_MEYER = 5.0 / 384.0  # cubic spline interpolation: |f - s| <= 5/384 H^4 max|f''''|
 CARRIED = ("omega", "alpha")  # float columns of a kinematics artifact resampled with theta
+CHANGE_MIN_ROWS = 100  # a change-driven log is recognised on at least this many rows ...
+CHANGE_SHARE = 0.99  # ... of which this share move the angle by a whole one or two counts (none by zero)
+CHANGE_GAP_COUNTS = 2  # a change-driven log's spacing over which the count moved more than this is a gap
+COUNT_RTOL = 0.01  # a step is a whole number of counts to this share of a count (values written to ~1e-16)
 
 
 @dataclass(frozen=True)
@@ -122,9 +134,57 @@ def spline_error_bound(t: np.ndarray, theta: np.ndarray, max_spacing: float) -> 
                           "period and amplitude", **facts}
 
 
-def _runs(t: np.ndarray, ok: np.ndarray, gap: float) -> list[np.ndarray]:
-    """Runs of consecutive usable rows with no spacing above ``gap``."""
-    brk = np.flatnonzero(~ok[1:] | ~ok[:-1] | (np.diff(t) > gap)) + 1
+def change_count(theta: np.ndarray, ok: np.ndarray) -> float | None:
+    """The count [rad] of a change-driven log, or None: every usable row moves the angle by a whole count.
+
+    A logger sampling on a clock repeats its value while the bob dwells within a count (a step of zero
+    counts) or moves several counts per row when the bob is fast; a logger writing on each change of
+    the count moves one count per row, two when two changes fall within its loop.
+    """
+    th = np.asarray(theta, dtype=float)[np.asarray(ok, dtype=bool)]
+    if th.size < CHANGE_MIN_ROWS:
+        return None
+    step = np.abs(np.diff(th))
+    if not np.all(np.isfinite(step)) or np.any(step == 0.0):
+        return None
+    count = float(step.min())
+    counts = step / count
+    whole = (np.abs(counts - np.round(counts)) <= COUNT_RTOL) & (np.round(counts) <= CHANGE_GAP_COUNTS)
+    return count if float(np.mean(whole)) >= CHANGE_SHARE else None
+
+
+def at_count_edges(theta: np.ndarray, ok: np.ndarray, count: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A change-driven log's rows at the count edges the bob crossed, and where its gaps are.
+
+    A row's time is when the count changed, i.e. when the bob crossed the edge between the count before
+    and the count written; moving up it writes the count above that edge, moving down the count below.
+    Half a count back against the motion is that edge, the same angle whichever way the bob crossed it (up
+    to a constant half count, by how the logger labels its counts: a zero offset); as written, the record
+    carries a hysteresis of one count between its rising and falling halves.
+
+    Returns
+    -------
+    theta : ndarray
+        The angle at each row's time [rad]; the first row, whose motion is unknown, is not usable.
+    ok : ndarray of bool
+    gap_after : ndarray of bool, shape (n - 1,)
+        Spacings over which the count moved more than :data:`CHANGE_GAP_COUNTS` counts.
+    """
+    th = np.asarray(theta, dtype=float)
+    step = np.diff(th)
+    edge = th.copy()
+    edge[1:] -= 0.5 * count * np.sign(step)
+    ok = np.asarray(ok, dtype=bool).copy()
+    ok[0] = False
+    with np.errstate(invalid="ignore"):
+        gap_after = np.abs(step) > (CHANGE_GAP_COUNTS + 0.5) * count
+    return edge, ok, gap_after
+
+
+def _runs(t: np.ndarray, ok: np.ndarray, gap: float, gap_after: np.ndarray | None = None) -> list[np.ndarray]:
+    """Runs of consecutive usable rows with no spacing above ``gap`` (or, given ``gap_after``, none it marks)."""
+    breaks = (np.diff(t) > gap) if gap_after is None else gap_after
+    brk = np.flatnonzero(~ok[1:] | ~ok[:-1] | breaks) + 1
     return [run[ok[run]] for run in np.split(np.arange(t.size), brk)]
 
 
@@ -155,13 +215,14 @@ def resample_jittered(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, columns:
 
 
 def resample_irregular(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, columns: dict[str, np.ndarray], *,
-                       path: str | Path | None = None
+                       path: str | Path | None = None, gap_after: np.ndarray | None = None
                        ) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, dict[str, Any]]:
     """theta (and the carried columns) on a uniform grid from irregular times: the step is the mean
     spacing of consecutive samples (gaps left out), the origin the first sample.
 
     Grid points inside a run of at least :data:`MIN_RUN` usable samples (no spacing above
-    :data:`IRREGULAR_GAP_STEPS` median steps) get the run's cubic spline; the others are missing rows.
+    :data:`IRREGULAR_GAP_STEPS` median steps, or none that ``gap_after`` marks: a change-driven log's,
+    :func:`at_count_edges`) get the run's cubic spline; the others are missing rows.
 
     Returns
     -------
@@ -178,10 +239,13 @@ def resample_irregular(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, columns
     # the mean spacing within runs: for jitter about a grid it telescopes to the grid step (the
     # median of jittered spacings is off by its sampling noise, which accumulates along the grid)
     diffs = np.diff(t)
-    median = float(np.median(diffs))
-    step = float(np.mean(diffs[diffs <= IRREGULAR_GAP_STEPS * median]))
+    if gap_after is None:
+        median = float(np.median(diffs))
+        step = float(np.mean(diffs[diffs <= IRREGULAR_GAP_STEPS * median]))
+    else:
+        step = float(np.mean(diffs[~gap_after]))
     origin = float(t[0])
-    runs = [r for r in _runs(t, ok, IRREGULAR_GAP_STEPS * step) if r.size >= MIN_RUN]
+    runs = [r for r in _runs(t, ok, IRREGULAR_GAP_STEPS * step, gap_after) if r.size >= MIN_RUN]
     if not runs:
         raise ArtifactError(f"no {MIN_RUN} usable samples in a row without a gap: nothing to resample", path=path)
     floats = {"theta": theta, **{c: columns[c] for c in CARRIED if c in columns}}
@@ -210,6 +274,7 @@ def resample_irregular(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, columns
     record = {"method": "cubic spline (not-a-knot) through each run of usable samples, onto a uniform grid of the "
                         "mean spacing within runs from the first sample", "step_s": step, "origin_s": origin,
               "max_offset_steps": None, "irregular": True, "n": int(t.size), "n_out": int(new_t.size),
-              "n_samples_unused": int(np.count_nonzero(ok)) - used, "gap_steps": IRREGULAR_GAP_STEPS,
+              "n_samples_unused": int(np.count_nonzero(ok)) - used,
+              "gap_steps": IRREGULAR_GAP_STEPS if gap_after is None else None,
               **spline_error_bound(t[ok], theta[ok], spacing)}
     return out["theta"], carried, new_t, record

@@ -16,7 +16,8 @@ from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.gitlfs import is_lfs_pointer, lfs_message
 from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds
-from pendtrack.tables.grid import resample_irregular, resample_jittered, time_layout
+from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, resample_irregular,
+                                   resample_jittered, time_layout)
 from pendtrack.tables.text import raw_record, read_text
 from pendtrack.tables.trk import read_trk
 from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
@@ -226,7 +227,16 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
         assert grid is not None
         theta, columns, t, info["resampled"] = resample_jittered(t, theta, ok, columns, grid)
     elif layout == "irregular":
-        theta, columns, t, info["resampled"] = resample_irregular(t, theta, ok, columns, path=path)
+        count = change_count(theta, ok)
+        gap_after = None
+        if count is not None:  # an encoder logging each change of its count: rows at the edges crossed
+            theta, ok, gap_after = at_count_edges(theta, ok, count)
+        theta, columns, t, info["resampled"] = resample_irregular(t, theta, ok, columns, path=path,
+                                                                  gap_after=gap_after)
+        if count is not None:
+            info["resampled"].update(change_driven=True, count_rad=count, gap_counts=CHANGE_GAP_COUNTS)
+            log.info("%s: a row per change of a %.4g-rad count: rows taken at the count edges crossed, spacings "
+                     "within %d counts are no gaps", path, count, CHANGE_GAP_COUNTS)
         ok = np.ones(t.size, dtype=bool)
     if np.count_nonzero(ok) < min_samples:
         raise ArtifactError(f"only {np.count_nonzero(ok)} usable samples; {purpose} needs at least {min_samples}",

@@ -168,7 +168,12 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                 raise ConfigError(f"{len(body)} rows of {width} values and no header: pendtrack reads one "
                                   f"sample per row (t, theta, ... in columns); transpose the table")
             if width > 2:
-                if width <= MAX_SPELLED:
+                arc = _arc_after_time(body, sep, comma)
+                if width <= MAX_SPELLED and arc:
+                    hint = (f"columns 2 and 3 trace a pendulum's arc: add --columns t,{arc}{',_' * (width - 3)} if "
+                            f"they are t [s] and the bob's positions ({arc}: {ARC_WORDS[arc]}), or --columns "
+                            f"t,theta{',_' * (width - 2)} if they are t [s], theta [rad] and {width - 2} to ignore")
+                elif width <= MAX_SPELLED:
                     hint = (f"add --columns t,theta{',_' * (width - 2)} if they are t [s], theta [rad] and "
                             f"{width - 2} to ignore (or --columns t,x,y{',_' * (width - 3)} for positions)")
                 else:
@@ -221,6 +226,39 @@ def _refuse_placeholder_theta(theta: np.ndarray, cols: list[ColumnName | None], 
     hint = columns_hint(cols, {"t": found["t"], **xy})
     raise ConfigError(f"theta is {th[0]:g} in every row (no angle recorded) while x and y move: read the positions "
                       f"with --columns {hint} (y_down if y counts image rows downwards)")
+
+
+ARC_R2 = 0.8  # columns 2 and 3 are an arc when a parabola y(x) explains this share of y's variance ...
+ARC_LINE_R2 = 0.5  # ... and a straight line at most this share (the curvature is what explains it)
+ARC_SHARE = 0.25  # ... over the record's first quarter, where the swing is widest (later, a damped swing's sag sinks
+# into the positions' rounding: a Tracker export in whole mm: 0.89 over its first quarter, 0.76 over all of it)
+ARC_WORDS = {"x,y": "y upwards", "x,y_down": "y counting downwards, as image rows do"}
+
+
+def _arc_after_time(body: list[tuple[int, str]], sep: str | None, comma: bool) -> str | None:
+    """``"x,y"`` or ``"x,y_down"`` when a headerless table's columns 2 and 3 look like the bob's positions.
+
+    A bob swinging on a circle about a pivot above it has ``y = y_bottom + x^2 / 2L + ...`` near the
+    bottom: y is a parabola in x, curving up when y counts upwards and down when it counts image rows
+    downwards. An angle beside another quantity (omega, an uncertainty, a fit residual) is not.
+    """
+    cells = [_cells(line, sep, comma) for _, line in body]
+    xy = np.array([[_number(c[1]), _number(c[2])] if len(c) > 2 else [math.nan, math.nan] for c in cells])
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    xy = xy[: max(int(ARC_SHARE * xy.shape[0]), 10)]
+    if xy.shape[0] < 10:
+        return None
+    x, y = xy[:, 0] - xy[:, 0].mean(), xy[:, 1] - xy[:, 1].mean()
+    var = float(y @ y)
+    if var <= 0.0 or float(x @ x) <= 0.0:
+        return None
+    quad, res2 = np.polyfit(x, y, 2, full=True)[:2]
+    _, res1 = np.polyfit(x, y, 1, full=True)[:2]
+    r2 = 1.0 - float(res2[0]) / var if res2.size else 1.0
+    r2_line = 1.0 - float(res1[0]) / var if res1.size else 1.0
+    if r2 < ARC_R2 or r2_line > ARC_LINE_R2:
+        return None
+    return "x,y" if quad[0] > 0 else "x,y_down"
 
 
 def _number(cell: str) -> float:

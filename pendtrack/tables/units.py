@@ -222,7 +222,8 @@ def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
     if "t" not in found or not ("theta" in found or {"x", "y"} <= set(found)):
         missing = "t" if "t" not in found else "theta"
         names = ", ".join(repr(c.label) for c in cols if c is not None and c.role != "_") or "none"
-        hint = "" if where == "columns" else "; name them, e.g. --columns t,theta,_ or --columns t,x,y"
+        rest = ",_" * max(len(cols) - 2, 0)  # one name per column: the table's own count
+        hint = "" if where == "columns" else f"; name them, e.g. --columns t,theta{rest} or --columns t,x,y{rest[2:]}"
         raise ConfigError(f"{where}: missing column '{missing}' (needs t and theta, or t, x and y; recognised: "
                           f"{names}){hint}")
     if "theta" in found:

@@ -74,3 +74,15 @@ def test_run_with_a_bad_config_value_fails_before_any_stage(tmp_path):
     assert res.exit_code == 2
     assert res.output.strip().splitlines() == [f"error: {bad}: 'kinematics.savgol_window_s' must be > 0, got -1"]
     assert not out.exists() or not any(out.iterdir())  # no artifact, not even a partial one
+
+
+def test_the_fit_summary_says_when_its_errors_are_unreliable(capsys):
+    # mohamedelsayed-0/PHY180-Pendulum-Project's data3.txt: fit.json had stderr_reliable false (the sandwich changed
+    # with the finite-difference step) while the console printed "+- 0.005" like any other error
+    from pendtrack.cli.fit_cmd import echo_fit_summary
+
+    line = {"converged": True, "flags": {}, "findings": {}, "xi2_min": 1e-4, "rms": 0.007, "bic": -4454.0,
+            "Omega0": 5.459, "Omega0_stderr": 0.005, "runtime_s": 3.0}
+    echo_fit_summary({"models": {"classic": {**line, "stderr_reliable": False}, "opa": {**line, "stderr_reliable": True}}})
+    out = capsys.readouterr().out.splitlines()
+    assert "errors unreliable" in out[0] and "errors unreliable" not in out[1]

@@ -204,3 +204,9 @@ def test_a_step_far_out_maps_to_a_finite_point_without_an_overflow_warning():
     # inside the range the maps are each other's inverse
     back = coords.to_natural(coords.to_internal(np.array([0.3, 1.7])))
     assert np.allclose(back, [0.3, 1.7], rtol=1e-12)
+    # the Jacobian's chain rule at such a point (tylertian123/phy180_lab's trial1_rawdata.txt printed "overflow
+    # encountered in multiply" from it): inf entries, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        jac = coords.jacobian(np.full((4, 2), 1e300), np.array([1e10, -80.0]))
+    assert np.isinf(jac).any()

@@ -158,6 +158,67 @@ def test_irregular_times_with_a_gap_and_close_samples():
     assert np.max(np.abs(new_theta - motion(new_t))) <= rec["error_bound_rad"]
 
 
+def _change_driven(count: float, seconds: float = 20.0, lost: tuple[float, float] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, CubicSpline]:
+    """An encoder logger writing a row each time its count changes (y-fysiks/PHY180-Pendulum-datafit's
+    Lab2/data2_20.csv: 2400 counts a turn, a row per change, dwells of 0.3-0.6 s at the late turning points):
+    the crossing times of the count edges k * count (to 1 us) and the count written, moving up the one
+    above the edge, moving down the one below. ``lost``: a stretch [s] the logger missed."""
+    fine = np.arange(0.0, seconds + 0.1, 1e-3)
+    motion = CubicSpline(fine, simulate(get_model("standard"), SWING, fine, theta0=0.6, omega0=0.0).theta)
+    tt = np.arange(0.0, seconds, 2e-5)
+    th = motion(tt)
+    level = np.floor(th / count)
+    at = np.flatnonzero(np.diff(level)) + 1  # first fine sample past each crossing
+    if lost is not None:
+        at = at[(tt[at] < lost[0]) | (tt[at] > lost[1])]
+    edge = np.maximum(level[at], level[at - 1]) * count  # the edge crossed, either way
+    t = tt[at - 1] + (edge - th[at - 1]) / (th[at] - th[at - 1]) * 2e-5  # its time, linear within 20 us
+    return np.round(t * 1e9) / 1e9, level[at] * count, motion
+
+
+@pytest.mark.integration
+def test_a_log_written_on_each_change_of_the_count(tmp_path):
+    # Such a log's long spacings are the bob dwelling within one count near its turning points: every one of them
+    # was a gap ("no gap-free stretch of at least 1 s ... 209 segment(s), all too short"), and each row's value is
+    # the count above or below the edge crossed, a hysteresis of one count between rising and falling halves.
+    count = 2.0 * np.pi / 2400.0
+    t, theta, motion = _change_driven(count)
+    src = tmp_path / "encoder.csv"
+    src.write_text("timestamp, angle\n" + "".join(f"{a:.9f}, {b!r}\n" for a, b in zip(t.tolist(), theta.tolist())))
+    rec = read_record(src)
+    r = rec.info["resampled"]
+    assert r["change_driven"] and r["count_rad"] == pytest.approx(count, rel=1e-9) and rec.ok.all()
+    assert rec.t[-1] > 19.0 and rec.t.size == pytest.approx(np.ptp(rec.t) / r["step_s"] + 1, abs=0.5)  # no gaps
+    err = rec.theta - motion(rec.t)
+    omega = motion(rec.t, 1)
+    fast = np.abs(omega) > 0.3 * np.max(np.abs(omega))  # away from the turning points' dwells
+    rising, falling = err[fast & (omega > 0)], err[fast & (omega < 0)]
+    # at the edges the bob crossed: rising and falling halves agree to well within a count (as written they
+    # differ by one), and the angle is the motion's up to the constant half count of the labels
+    assert abs(np.mean(rising) - np.mean(falling)) < 0.1 * count
+    assert np.mean(err) == pytest.approx(-0.5 * count, abs=0.1 * count)
+    assert np.std(err[fast]) < 0.2 * count
+    res = invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q")
+    assert res.exit_code == 0, res.output
+
+
+def test_a_change_driven_log_keeps_the_gaps_it_has():
+    # a stretch the logger missed moves the count by many: that spacing is a gap, the dwells are not
+    import pendtrack.tables.grid as grid
+
+    count = 2.0 * np.pi / 2400.0
+    t, theta, _ = _change_driven(count, seconds=12.0, lost=(5.0, 5.6))
+    ok = np.ones(t.size, bool)
+    assert grid.change_count(theta, ok) == pytest.approx(count, rel=1e-9)
+    edge, ok, gap_after = grid.at_count_edges(theta, ok, count)
+    assert np.count_nonzero(gap_after) == 1 and 4.9 < t[:-1][gap_after][0] < 5.0
+    # a clock-sampled log of the same swing repeats its count at the turning points: not change-driven
+    clock = np.arange(0.0, 12.0, 0.005)
+    assert grid.change_count(np.floor(_change_driven(count, seconds=12.0)[2](clock) / count) * count,
+                             np.ones(clock.size, bool)) is None
+
+
 # --- column names: indexed, t_s ---------------------------------------------------------------
 
 def test_indexed_names_t_s_theta1_rad(tmp_path):

@@ -244,7 +244,8 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 
 @pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
-@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis"])
+@pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
+                                  "four_columns"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -254,6 +255,15 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
     elif case == "unknown_header":
         src.write_text("a b\n" + _lines(T, THETA))
         fragments = (str(src), "missing column 't'", "--columns t,theta")
+    elif case == "positions":
+        # t, x, y of the bob without a header, y counting down (mohamedelsayed-0/PHY180-Pendulum-Project's data3.txt):
+        # the hint offered t,theta,_ first, which fitted x in metres as an angle in radians
+        src.write_text(_lines(T, X, -Y))
+        fragments = (str(src), "columns 2 and 3 trace a pendulum's arc: add --columns t,x,y_down")
+    elif case == "four_columns":
+        # spreadsheet names (JLefebvre55/PHY180-Pendulum's q2_data.csv): the hint named 3 columns of 4
+        src.write_text("X,Y,X',Y'\n" + _lines(T, THETA, T, T, sep=","))
+        fragments = (str(src), "missing column 't'", "--columns t,theta,_,_ or --columns t,x,y,_")
     elif case == "count":
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")

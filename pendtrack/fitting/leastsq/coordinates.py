@@ -124,10 +124,13 @@ class BoundCoordinates:
         jac = np.asfortranarray(jac_x)
         for i, exps in self.scaled:
             scale = _exp(-sum(y[j] * lg for j, lg in exps))  # d x_i/d y_i; d x_i/d y_j = -x_i l_j
-            amp = y[i] * scale
-            for j, lg in exps:
-                jac[:, j] -= (amp * lg) * jac[:, i]
-            jac[:, i] *= scale
+            amp = float(y[i]) * scale  # Python floats: inf past float64's range, without a warning
+            # a trial point at an amplitude past float64's range gives inf entries, as _times_exp gives inf:
+            # the same numbers, without numpy's warning printed to the user
+            with np.errstate(over="ignore", invalid="ignore"):
+                for j, lg in exps:
+                    jac[:, j] -= (amp * lg) * jac[:, i]
+                jac[:, i] *= scale
         if self.tv is not None:
             i, j, _ = self.tv
             gamma, kappa = y[i], y[j]  # C4 = gamma/kappa, t0 = t_ref - 1/kappa
