@@ -22,10 +22,7 @@ Flags and findings
 acting as an added mass). ``findings`` maps a parameter to what the fit found when a term sits at
 a limit where it vanishes or becomes a simpler one (:func:`split_findings`, the terms'
 :class:`~pendtrack.models.declare.Limit` declarations): "the data show no memory; the model
-reduces to ..." -- a result about the pendulum, never a flag. The other parameters' errors and
-``covariance`` are then the reduced model's (:meth:`~pendtrack.fitting.uncertainty.Uncertainty.without`:
-the findings' parameters held at their limit, zero rows and columns in ``covariance``); a finding's
-own ``stderr`` is the full sandwich's, how far from the limit the data allow it. ``converged`` keeps its meaning
+reduces to ..." -- a result about the pendulum, never a flag. ``converged`` keeps its meaning
 (the optimiser's verdict); ``trustworthy`` is ``converged`` and no flag: what the CLI and the
 report call a good fit.
 
@@ -558,11 +555,9 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
                            t_end=t_end,
                            floors=floors, nuisance=_measurement_params(model)),
         t_start=problem.t_start, t_end=t_end)
-    # The model reduces to one without the absent terms: the others' errors are its own (held: the findings'
-    # parameters). A parameter of an absent term may have no standard error (the exponent of a power drag at
-    # C3 = 0 changes nothing): the fit is judged on the others.
-    covariance, stderr = unc.without(np.array([nm in findings for nm in names], dtype=bool))
-    cov_ok = bool(all(math.isfinite(float(se)) for nm, se in zip(names, stderr) if nm not in findings))
+    # a parameter of an absent term (a finding) may have no standard error (the exponent of a power drag
+    # at C3 = 0 changes nothing): the fit is judged on the others
+    cov_ok = bool(all(math.isfinite(float(se)) for nm, se in zip(names, unc.stderr) if nm not in findings))
     converged = bool(best.success and cov_ok and follows)
     reasons = []
     if not best.success:
@@ -586,7 +581,7 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
             return ParamEstimate(value=values[name], stderr=0.0, u_paper=0.0, u_region=0.0, stderr_naive=0.0,
                                  estimate=setup.estimates.get(name, math.nan), fixed=True)
         j = fitted[name]
-        return ParamEstimate(value=float(x[j]), stderr=float(stderr[j]), u_paper=float(unc.u_paper[j]),
+        return ParamEstimate(value=float(x[j]), stderr=float(unc.stderr[j]), u_paper=float(unc.u_paper[j]),
                              u_region=float(unc.u_region[j]), stderr_naive=float(unc.stderr_naive[j]),
                              stderr_bootstrap=float(unc.stderr_bootstrap[j]), stderr_low=float(unc.stderr_low[j]),
                              stderr_high=float(unc.stderr_high[j]),
@@ -601,7 +596,7 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         runtime_s=float(runtime_s), seed=int(seed), cost=options.cost,
         window=(problem.t_start, float(problem.t[-1])), omega0_hat=setup.summary.omega0_hat,
         n_starts=len(found.outcomes), n_accepted=unc.n_accepted, accept_ratio=float(options.accept_ratio),
-        hac_lag=unc.hac_lag, covariance=covariance, fitted_names=names, start_costs=start_costs,
+        hac_lag=unc.hac_lag, covariance=unc.covariance, fitted_names=names, start_costs=start_costs,
         memory_s=float(model_options.memory_s), full_history=bool(model_options.full_history),
         message="; ".join(reasons + notes) if reasons else "; ".join([best.message] + notes),
         stderr_reliable=unc.reliable,

@@ -518,10 +518,6 @@ class Uncertainty:
         The standard errors the plausibility flags judge by: for a model with forward
         sensitivities, the larger of ``stderr`` and the sandwich on the sensitivity Jacobian (the
         finite differences' limit of zero step); else ``stderr``.
-    jacobian, residuals : ndarray
-        The sandwich's finite-difference Jacobian and residual vector (:meth:`without`).
-    n : int
-        Samples of the problem (channels are stacked blocks of ``n``).
     """
 
     covariance: np.ndarray
@@ -536,47 +532,11 @@ class Uncertainty:
     stderr_bootstrap: np.ndarray
     step_spread: float
     stderr_judged: np.ndarray
-    jacobian: np.ndarray
-    residuals: np.ndarray
-    n: int
 
     @property
     def reliable(self) -> bool:
         """The standard errors do not depend on the finite-difference step (a smooth solver)."""
         return bool(self.step_spread <= math.log(SMOOTH_RATIO))
-
-    def without(self, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The sandwich of the fit with the ``fixed`` parameters held where they are (the reduced model's).
-
-        A term the fit finds absent (its amplitude on its bound 0, ``t0`` far before the record) leaves
-        a model without it; the other parameters' errors are that model's. With the absent parameter
-        free in the sandwich they are the errors of an estimate allowed past the physical limit: a
-        clock pendulum's classic fit quoted Omega0 +- 0.036 rad/s, from Ca trading against Omega0 at
-        Ca = 0, where OPA's (no Ca) gave +- 0.0016.
-
-        Parameters
-        ----------
-        fixed : ndarray of bool
-            The parameters held (``problem.names`` order).
-
-        Returns
-        -------
-        covariance : ndarray
-            The fitted vector's covariance: zero rows and columns for the held parameters.
-        stderr : ndarray
-            Standard errors: the reduced sandwich's for the others, ``stderr`` (the full sandwich's)
-            for the held parameters, which says how far from the limit the data allow them.
-        """
-        fixed = np.asarray(fixed, dtype=bool)
-        if not fixed.any() or fixed.all():
-            return self.covariance, self.stderr
-        free = ~fixed
-        sub, _ = hac_covariance(self.jacobian[:, free], self.residuals, self.n, lag=self.hac_lag)
-        cov = np.zeros_like(self.covariance)
-        cov[np.ix_(free, free)] = sub
-        stderr = self.stderr.copy()
-        stderr[free] = stderr_from_cov(sub)
-        return cov, stderr
 
 
 def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: FitConfig, seed: int, workers: int,
@@ -649,8 +609,7 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     return Uncertainty(covariance=cov, hac_lag=int(lag), stderr=stderr, stderr_naive=se_naive,
                        u_paper=u_paper, u_region=region_halfwidth(jac, best.cost, options.accept_ratio),
                        n_accepted=int(accepted.sum()), stderr_low=se_low, stderr_high=se_high,
-                       stderr_bootstrap=se_boot, step_spread=step_spread, stderr_judged=judged,
-                       jacobian=jac, residuals=r, n=int(problem.n))
+                       stderr_bootstrap=se_boot, step_spread=step_spread, stderr_judged=judged)
 
 
 def _bootstrap(problem: FitProblem, x: np.ndarray, n_boot: int, block: int, seed: int, workers: int,
