@@ -130,7 +130,11 @@ def read_lines(path: Path) -> list[tuple[int, str]]:
     except UnicodeDecodeError:
         text = data.decode("cp1252", errors="replace")
     lines = [(n, raw.strip()) for n, raw in enumerate(text.splitlines(), start=1)]
-    return [(n, s) for n, s in lines if s and not s.startswith(("#", "%"))]
+    lines = [(n, s) for n, s in lines if s and not s.startswith(("#", "%"))]
+    if lines and lines[0][1].lower().startswith(("<!doctype html", "<html")):
+        # a repository's file page saved from the browser in place of the file
+        raise ConfigError("a web page (HTML), not a table: download the file itself (on GitHub: its Raw button)")
+    return lines
 
 
 def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
@@ -151,6 +155,9 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     lines = read_lines(path)
     start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
     preamble, body = lines[:start], lines[start:]
+    if not body:
+        raise ConfigError("no row of numbers: expected one sample per row (t, theta, ... in columns)"
+                          + (f" below the header {preamble[-1][1][:60]!r}" if preamble else ""))
     sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
     width = len(_cells(body[0][1], sep, comma)) if body else 2
     if columns is not None:

@@ -245,7 +245,7 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
-                                  "four_columns"])
+                                  "four_columns", "web_page", "header_only"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -264,6 +264,12 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         # spreadsheet names (JLefebvre55/PHY180-Pendulum's q2_data.csv): the hint named 3 columns of 4
         src.write_text("X,Y,X',Y'\n" + _lines(T, THETA, T, T, sep=","))
         fragments = (str(src), "missing column 't'", "--columns t,theta,_,_ or --columns t,x,y,_")
+    elif case == "web_page":  # a repository's file page saved from the browser: "missing column 't'" before
+        src.write_text("<!DOCTYPE html>\n<html><head><title>data.csv</title></head><body>1,2</body></html>\n")
+        fragments = (str(src), "a web page (HTML), not a table", "Raw")
+    elif case == "header_only":  # a logger that wrote its header and no sample: "only 0 usable samples" before
+        src.write_text("time,angle\n")
+        fragments = (str(src), "no row of numbers", "below the header 'time,angle'")
     elif case == "count":
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
