@@ -48,6 +48,16 @@ class Context:
     tick: Callable[[int], None]
     # id of a current model -> (that model, its out-of-fold prediction): refit_test fits it once per model
     refits: dict[int, tuple[FitPair, np.ndarray]] = field(default_factory=dict)
+    # terms beyond the baseline -> the lowest whole-record fit of that model (its Xi^2; values, theta0,
+    # omega0), for the nested starts of the models that extend it by one term (FitTask.sub_fulls)
+    fulls: dict[frozenset[str], tuple[float, dict[str, float]]] = field(default_factory=dict)
+
+    def sub_fulls(self, kept: Sequence[str], option: Sequence[str]) -> tuple[dict[str, float], ...]:
+        """Whole-record fits of the models ``kept + option`` extends by one term, the current one
+        (``kept``, the task's ``full_base``) apart, dropping each of its terms in turn."""
+        terms = (*kept, *option)
+        subs = [frozenset(t for j, t in enumerate(terms) if j != i) for i in range(len(terms))]
+        return tuple(self.fulls[s][1] for s in subs if s != frozenset(kept) and s in self.fulls)
 
     def evaluate(self, current: FitPair, kept: Sequence[str], options: Sequence[tuple[str, ...]],
                  starts: Sequence[Sequence[dict[str, float]]], scores: Sequence[float], *, step: int, kind: str,
@@ -67,7 +77,7 @@ class Context:
         initials = list(initials) if initials is not None else [warm] * len(options)
         base = full_start(current)
         tasks = [FitTask(data, self.baseline, (*kept, *opt), ini, dc.n_starts, seed, extra_starts=tuple(st),
-                         full_base=base, **common)
+                         full_base=base, sub_fulls=self.sub_fulls(kept, opt), **common)
                  for opt, st, ini in zip(options, starts, initials)]
         pairs = run_tasks(fit_train, [(task,) for task in tasks], on_done=self.tick, executor=self.executor)
         again = [i for i, p in enumerate(pairs)
@@ -89,6 +99,9 @@ class Context:
         refits = run_tasks(fit_full, [(tasks[i], pairs[i]) for i in again], executor=self.executor)
         for i, p in zip(again, refits):
             pairs[i] = p
+            key = frozenset((*kept, *options[i]))
+            if p.full is not None and p.full.xi2 < self.fulls.get(key, (math.inf, {}))[0]:
+                self.fulls[key] = (p.full.xi2, full_start(p))
         judged = [judge(p, current, data, effect="+".join(opt), terms=tuple(opt), kind=kind, step=step, score=s,
                         delta_bic_max=dc.delta_bic_max, heldout_z_min=dc.heldout_z_min,
                         min_gain=dc.heldout_min_gain, test=tests.get(i), seed=seed)

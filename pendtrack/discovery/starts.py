@@ -185,7 +185,9 @@ def measurement_starts(term: str, warm: Mapping[str, float], data: AnalysisData,
 def combination_starts(terms: Sequence[str], singles: Mapping[str, Mapping[str, float]],
                        scaled: Mapping[str, Sequence[Mapping[str, float]]]) -> list[dict[str, float]]:
     """Starts for a combination of effects: each single effect's training fit, with the other
-    effects' terms at their scaled starts (:func:`scaled_starts`, the :data:`SHARE` one).
+    effects' terms at their scaled starts (:func:`scaled_starts`, the :data:`SHARE` one); then each
+    single's fit again with the others at their :data:`TINY` starts, that single's optimum itself (the
+    models are nested, so the combination's training fit cannot end far above any single's).
 
     Parameters
     ----------
@@ -200,19 +202,20 @@ def combination_starts(terms: Sequence[str], singles: Mapping[str, Mapping[str, 
     from pendtrack.models import CATALOGUE
 
     out = []
-    for a in terms:
-        if a not in singles:
-            continue
-        start = dict(singles[a])
-        complete = True
-        for b in terms:
-            if b == a:
+    for which in (-1, 0):  # the SHARE starts, then the TINY ones (the nested starts)
+        for a in terms:
+            if a not in singles:
                 continue
-            if not scaled.get(b):
-                complete = False
-                break
-            src = scaled[b][-1]
-            start.update({p: float(src[p]) for p in CATALOGUE[b].params})
-        if complete:
-            out.append(start)
+            start = dict(singles[a])
+            complete = True
+            for b in terms:
+                if b == a:
+                    continue
+                if not scaled.get(b):
+                    complete = False
+                    break
+                src = scaled[b][which]
+                start.update({p: float(src[p]) for p in CATALOGUE[b].params})
+            if complete and start not in out:
+                out.append(start)
     return out

@@ -242,12 +242,42 @@ def test_combination_starts_take_each_single_fit_and_the_others_scaled_start():
     scaled = {"added_mass": [{"Ca": 1e-4}, {"Ca": 0.003}],
               "memory": [{"G2": 1e-5, "beta": 0.5, "p_f": 1.5}, {"G2": 0.001, "beta": 0.5, "p_f": 1.5}]}
     starts = combination_starts(("added_mass", "memory"), singles, scaled)
-    assert len(starts) == 2
+    assert len(starts) == 4
     assert starts[0]["Ca"] == 0.015 and starts[0]["G2"] == 0.001 and starts[0]["Omega0"] == 5.0
     assert starts[1]["G2"] == 0.004 and starts[1]["Ca"] == 0.003 and starts[1]["Omega0"] == 5.01
+    # then the nested starts: each single's optimum with the other at its TINY start
+    assert starts[2]["Ca"] == 0.015 and starts[2]["G2"] == 1e-5 and starts[2]["Omega0"] == 5.0
+    assert starts[3]["G2"] == 0.004 and starts[3]["Ca"] == 1e-4 and starts[3]["Omega0"] == 5.01
     # a single that could not be fitted gives no start; a term without a scaled start leaves it incomplete
-    assert combination_starts(("added_mass", "memory"), {"memory": singles["memory"]}, scaled)[0]["Ca"] == 0.003
-    assert combination_starts(("added_mass", "memory"), singles, {"memory": scaled["memory"]}) == [starts[0]]
+    alone = combination_starts(("added_mass", "memory"), {"memory": singles["memory"]}, scaled)
+    assert [s["Ca"] for s in alone] == [0.003, 1e-4]
+    assert combination_starts(("added_mass", "memory"), singles, {"memory": scaled["memory"]}) == [starts[0], starts[2]]
+
+
+def test_whole_record_fits_also_start_at_each_model_they_extend_by_one_term():
+    # the nested start: a sub-model's whole-record optimum, the missing term's coefficient at TINY of its
+    # training value and its shape at the training value (the models are nested: it cannot end far above it)
+    from pendtrack.discovery.candidate_fits import nested_start
+    from pendtrack.discovery.exchange import Context
+    from pendtrack.discovery.starts import TINY
+
+    train = {"Omega0": 5.0, "C1": 0.02, "C3": 0.1, "p": 1.4, "G2": 0.004, "beta": 0.6, "p_f": 1.5,
+             "theta0": 2.9, "omega0": 0.0}
+    sub = {"Omega0": 5.01, "C1": 0.018, "C3": 0.2, "p": 1.1, "theta0": 2.91, "omega0": 0.01}
+    start = nested_start(train, sub, ("power_drag", "memory"))
+    assert {k: start[k] for k in sub} == sub
+    assert start["G2"] == TINY * 0.004 and (start["beta"], start["p_f"]) == (0.6, 1.5)
+    assert set(start) == set(train)
+    # the registry: every model one term smaller with a whole-record fit, the current one (the task's
+    # full_base) apart, dropping each of the candidate's terms in turn
+    ctx = Context(None, "standard", None, None, lambda n: None)
+    ctx.fulls.update({frozenset({"offset", "memory"}): (1.0, {"a": 1.0}),
+                      frozenset({"offset", "power_drag"}): (1.0, {"a": 2.0}),
+                      frozenset({"offset"}): (2.0, {"a": 0.0}),
+                      frozenset({"power_drag", "memory"}): (0.5, {"a": 3.0})})
+    assert ctx.sub_fulls(("offset",), ("power_drag", "memory")) == ({"a": 3.0}, {"a": 1.0}, {"a": 2.0})
+    assert ctx.sub_fulls(("offset",), ("memory",)) == ()
+    assert ctx.sub_fulls((), ("added_mass", "memory")) == ()
 
 
 def test_subset_starts_swap_the_kept_effects_for_the_singles_fits():
