@@ -32,11 +32,15 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import ConfigError
-from pendtrack.tables.units import ALL_UNITS, ColumnName, columns_hint, parse_column_name, roles
+from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_hint, parse_column_name, roles,
+                                    split_unit)
 
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
 _LAYOUTS = (("\t", False), ("\t", True), (";", False), (";", True), (",", False), (None, False), (None, True))
+ROLE_WORDS = {"theta": "an angle", "x": "a position", "y": "a position"}
+RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and does not integrate a sensor's rates; "
+               "export the angle, or film the swing and run pendtrack on the video")
 MAX_SPELLED = 8  # a --columns hint spelled out in full up to this many columns (one line stays readable)
 
 
@@ -100,6 +104,22 @@ def _with_units(fields: list[str], units: list[str]) -> list[str]:
     return out
 
 
+def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]:
+    """Columns of the header (its last line) whose unit is a rate, not a quantity pendtrack reads:
+    index -> (label, what the unit measures). A phone's sensor log (phyphox: ``Gyroscope x (rad/s)``,
+    ``Acceleration x (m/s^2)``) has no angle column, and an angular velocity read as theta is
+    a meaningless record."""
+    if not preamble:
+        return {}
+    out = {}
+    for i, label in enumerate(header_fields(preamble[-1][1])):
+        _, unit = split_unit(label.strip().strip('"').strip().lower())
+        what = RATE_UNITS.get(unit.replace(" ", ""))
+        if what:
+            out[i] = (label.strip().strip('"').strip(), what)
+    return out
+
+
 def _header(preamble: list[tuple[int, str]]) -> list[ColumnName | None] | None:
     """The columns named by the preamble (see the module docstring); None without a preamble."""
     if not preamble:
@@ -160,12 +180,18 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                           + (f" below the header {preamble[-1][1][:60]!r}" if preamble else ""))
     sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
     width = len(_cells(body[0][1], sep, comma)) if body else 2
+    rates = _rate_columns(preamble)
     if columns is not None:
         if body and len(columns) != width:
             raise ConfigError(f"--columns names {len(columns)} columns, the table has {width} (first data line "
                               f"{body[0][0]}): add _ for each column to ignore")
         cols = [parse_column_name(n) for n in columns]
         where = "--columns"
+        for i, c in enumerate(cols):
+            if c is not None and c.role in ("theta", "x", "y") and i in rates:
+                raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as "
+                                  f"{rates[i][0]!r}, a rate ({rates[i][1]}), not {ROLE_WORDS[c.role]}: "
+                                  f"{RATE_ADVICE}")
     else:
         cols_or_none = _header(preamble)
         where = "header"
@@ -189,7 +215,14 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                 raise ConfigError(f"{width} columns and no header: say what they are with --columns; {hint}")
             cols_or_none = [ColumnName("t", label="t"), ColumnName("theta", label="theta")]
         cols = cols_or_none
-    found = roles(cols, where)
+    try:
+        found = roles(cols, where)
+    except ConfigError:
+        if where == "header" and rates and not any(c is not None and c.role in ("theta", "x", "y") for c in cols):
+            names = ", ".join(repr(label) for label, _ in rates.values())
+            raise ConfigError(f"header: the columns {names} are rates ({'; '.join(sorted({u for _, u in rates.values()}))}), "
+                              f"not an angle or positions: {RATE_ADVICE}") from None
+        raise
     order = sorted(found.items(), key=lambda kv: kv[1])
     data = np.full((len(body), len(order)), np.nan)
     expected = ", ".join(cols[i].describe() for _, i in order)  # type: ignore[union-attr]

@@ -34,6 +34,13 @@ LENGTH_UNITS: Mapping[str, float | None] = {
     "m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "ft": 0.3048, "px": None, "pixel": None, "pixels": None,
 }
 ALL_UNITS = frozenset({*TIME_UNITS, *ANGLE_UNITS, *LENGTH_UNITS})
+#: Units of rates, which no column pendtrack reads carries (lower case, spaces removed): unit -> what it measures.
+RATE_UNITS: Mapping[str, str] = {
+    **{u: "an angular velocity" for u in ("rad/s", "deg/s", "°/s", "rpm", "rev/s")},
+    **{u: "a linear velocity" for u in ("m/s", "cm/s", "mm/s", "px/s")},
+    **{u: "an acceleration" for u in ("rad/s^2", "rad/s²", "rad/s2", "deg/s^2", "deg/s²", "°/s^2", "°/s²",
+                                        "m/s^2", "m/s²", "m/s2")},
+}
 IGNORED = frozenset({"_", "-"})
 _UNIT_RE = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 _DATASET_RE = re.compile(r"^(?P<set>[^:\[(]+):\s*(?P<name>.+)$")  # Logger Pro's "Run 1: Time (s)"
@@ -84,7 +91,7 @@ class ColumnName:
         return f"{name}[{unit}]" if unit else name
 
 
-def _split_unit(text: str) -> tuple[str, str]:
+def split_unit(text: str) -> tuple[str, str]:
     """(name, unit) of ``name [unit]``, ``name (unit)``, ``name_unit``, ``name unit`` or ``name°``."""
     m = _UNIT_RE.match(text)
     if m:
@@ -131,7 +138,7 @@ def parse_column_name(label: str, *, aliases: bool = True) -> ColumnName | None:
         dataset, text = m.group("set").strip(), m.group("name").strip()
     if text in IGNORED or not text:
         return ColumnName("_", label=label)
-    name, unit = _split_unit(text)
+    name, unit = split_unit(text)
     index = None
     found = _role(name)
     if found is None:

@@ -245,7 +245,7 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
-                                  "four_columns", "web_page", "header_only"])
+                                  "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -270,6 +270,17 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
     elif case == "header_only":  # a logger that wrote its header and no sample: "only 0 usable samples" before
         src.write_text("time,angle\n")
         fragments = (str(src), "no row of numbers", "below the header 'time,angle'")
+    elif case in ("gyroscope", "gyroscope_named"):
+        # a phone's gyroscope log (phyphox's CSV export, as in ubsuny/data-analysis-final20's Gyroscope/data): rates,
+        # no angle. The hint offered --columns t,theta,_,_,_, which read an angular velocity as the angle
+        omega = np.gradient(THETA, T)
+        header = '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)","Absolute (rad/s)"\n'
+        src.write_text(header + _lines(T, omega, 0 * T, 0 * T, np.abs(omega), sep=","))
+        if case == "gyroscope":
+            fragments = (str(src), "'Gyroscope x (rad/s)'", "are rates (an angular velocity), not an angle")
+        else:
+            flags = ("--columns", "t,theta,_,_,_")
+            fragments = (str(src), "column 2 theta", "'Gyroscope x (rad/s)', a rate (an angular velocity)")
     elif case == "count":
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
