@@ -41,6 +41,8 @@ _LAYOUTS = (("\t", False), ("\t", True), (";", False), (";", True), (",", False)
 ROLE_WORDS = {"theta": "an angle", "x": "a position", "y": "a position"}
 RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and does not integrate a sensor's rates; "
                "export the angle, or film the swing and run pendtrack on the video")
+RAGGED_SHARE = 0.9  # rows below a first row of another width that make it a line of settings (a ragged table's
+                    # blank cells keep their separators, so its rows keep their count)
 MAX_SPELLED = 8  # a --columns hint spelled out in full up to this many columns (one line stays readable)
 
 
@@ -102,6 +104,20 @@ def _with_units(fields: list[str], units: list[str]) -> list[str]:
         col = (_parse_all([f]) or [None])[0]
         out.append(f"{f} [{u}]" if col is not None and not col.unit and u.lower() in ALL_UNITS else f)
     return out
+
+
+def _refuse_ragged_start(body: list[tuple[int, str]], sep: str | None, comma: bool, width: int) -> None:
+    """A first row of numbers whose count differs from that of nearly every row below it is a line of
+    settings (a logger's ``90, 1000, 5`` for start angle, rate and duration), not a sample: a
+    ConfigError naming it, rather than reading the samples below as its columns."""
+    if len(body) < 3:
+        return
+    widths = np.array([len(_cells(line, sep, comma)) for _, line in body[1:]])
+    below = int(np.median(widths))
+    if below != width and np.count_nonzero(widths == below) >= RAGGED_SHARE * widths.size:
+        raise ConfigError(f"line {body[0][0]} ({body[0][1][:40]!r}) has {width} values, but {widths.size} rows "
+                          f"below it have {below}: a line of settings above the samples? Remove it (pendtrack "
+                          f"reads one sample per row, the same columns in each)")
 
 
 def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]:
@@ -180,6 +196,11 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                           + (f" below the header {preamble[-1][1][:60]!r}" if preamble else ""))
     sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
     width = len(_cells(body[0][1], sep, comma)) if body else 2
+    _refuse_ragged_start(body, sep, comma, width)
+    if width == 1 and columns is None:
+        raise ConfigError("one column of numbers: pendtrack reads a sample per row with its time (t, theta in "
+                          "columns); a log of angles alone needs its times added as a first column (t = k / rate "
+                          "for one written at a fixed rate)")
     rates = _rate_columns(preamble)
     if columns is not None:
         if body and len(columns) != width:

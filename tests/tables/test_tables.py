@@ -245,7 +245,8 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
-                                  "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named"])
+                                  "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named", "one_column",
+                                  "settings_line"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -281,6 +282,14 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         else:
             flags = ("--columns", "t,theta,_,_,_")
             fragments = (str(src), "column 2 theta", "'Gyroscope x (rad/s)', a rate (an angular velocity)")
+    elif case == "one_column":  # angles alone, one per line: read as times ("time going back") before
+        src.write_text(_lines(np.degrees(THETA)))
+        fragments = (str(src), "one column of numbers", "needs its times added")
+    elif case == "settings_line":
+        # a logger's settings line above one angle per line (jensen-benard/rotary-inverted-pendulum's
+        # pendulum_free_swing_data_01.txt: start angle, rate and duration): its 3 numbers were taken for the columns
+        src.write_text("trigger_start_deg, sample_rate, duration_sec\n90, 1000, 5\n" + _lines(np.degrees(THETA)))
+        fragments = (str(src), "line 2 ('90, 1000, 5') has 3 values", "a line of settings above the samples?")
     elif case == "count":
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
