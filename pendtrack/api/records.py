@@ -82,7 +82,7 @@ def kinematics(record: pd.DataFrame, *, config: ConfigLike = None, out: str | Pa
 
 
 def read_record(path: str | Path, *, columns: str | tuple[str, ...] | None = None,
-                pivot: tuple[float, float] | None = None) -> pd.DataFrame:
+                pivot: tuple[float, float] | None = None, rate_hz: float | None = None) -> pd.DataFrame:
     """theta(t) from a measured table or an artifact, read as `kinematics`, `fit` and `discover` read it.
 
     Parameters
@@ -93,6 +93,8 @@ def read_record(path: str | Path, *, columns: str | tuple[str, ...] | None = Non
         As ``--columns``: ``"t,theta,_"``, units as ``theta_deg``, ``"theta [deg]"``, ``t_ms``.
     pivot : (float, float), optional
         As ``--pivot`` (x, y tables).
+    rate_hz : float, optional
+        As ``--rate``: a table without a time column, row k at ``t = k / rate_hz`` [Hz].
 
     Returns
     -------
@@ -103,8 +105,9 @@ def read_record(path: str | Path, *, columns: str | tuple[str, ...] | None = Non
     from pendtrack.stages.kinematics import read_input
     from pendtrack.tables import TableSpec, parse_columns
 
-    cols = parse_columns(columns) if isinstance(columns, str) else columns
-    spec = None if cols is None and pivot is None else TableSpec(columns=cols, pivot=pivot)
+    cols = parse_columns(columns, check_roles=False) if isinstance(columns, str) else columns  # TableSpec checks
+    spec = (None if cols is None and pivot is None and rate_hz is None else
+            TableSpec(columns=cols, pivot=pivot, rate_hz=rate_hz))
     rec = read_input(path, table=spec)
     frame = pd.DataFrame({"t": rec.t, "theta": rec.theta, **rec.columns, "ok": rec.ok})
     if rec.kind == "kinematics" and rec.provenance is not None:

@@ -25,7 +25,8 @@ def _effects(value: str | None) -> tuple[str, ...] | None:
 @sharing_options
 @common_options(default_out="results")
 def discover(sources: tuple[str, ...], baseline: str | None, effects: str | None, columns: tuple[str, ...] | None,
-             pivot: tuple[float, float] | None, track: str | None, shared: tuple[str, ...], per_run: tuple[str, ...],
+             pivot: tuple[float, float] | None, track: str | None, rate_hz: float | None, shared: tuple[str, ...],
+             per_run: tuple[str, ...],
              per_group: tuple[str, ...], common: CommonArgs) -> None:
     """Show what the baseline model gets wrong, name the cause, extend the model, measure the gain.
 
@@ -43,7 +44,7 @@ def discover(sources: tuple[str, ...], baseline: str | None, effects: str | None
     sharing = sharing_option(shared=shared, per_run=per_run, per_group=per_group)
     if len(sources) > 1:
         out = discover_runs_stage(list(sources), out_dir=common.out, config=common.config, baseline=baseline,
-                                  effects=_effects(effects), table=table_spec(columns, pivot, track),
+                                  effects=_effects(effects), table=table_spec(columns, pivot, track, rate_hz),
                                   sharing=sharing, force=common.force, progress=common.progress)
         facts = out.facts
         state = "up to date" if out.skipped else "done"
@@ -58,7 +59,7 @@ def discover(sources: tuple[str, ...], baseline: str | None, effects: str | None
         raise click.UsageError("--shared, --per-run and --per-group need several records")
     source = sources[0]
     out = discover_stage(source, out_dir=common.out, config=common.config, baseline=baseline,
-                         effects=_effects(effects), table=table_spec(columns, pivot, track), force=common.force,
+                         effects=_effects(effects), table=table_spec(columns, pivot, track, rate_hz), force=common.force,
                          progress=common.progress)
     facts = out.facts
     state = "up to date" if out.skipped else "done"

@@ -51,7 +51,7 @@ def sharing_options(fn: F) -> F:
 def fit(kinematics_files: tuple[str, ...], models: tuple[str, ...], cost: str | None, n_starts: int | None,
         seed: int | None, workers: int | None, shared: tuple[str, ...], per_run: tuple[str, ...],
         per_group: tuple[str, ...], columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
-        track: str | None, common: CommonArgs) -> None:
+        track: str | None, rate_hz: float | None, common: CommonArgs) -> None:
     """Fit physical models to KINEMATICS -> OUT/fit.json, fit_<model>.json, fit.parquet.
 
     Several records (runs of one pendulum) are fitted jointly: OUT/fit_<model>.json holds the
@@ -77,13 +77,13 @@ def fit(kinematics_files: tuple[str, ...], models: tuple[str, ...], cost: str | 
     sharing = sharing_option(shared=shared, per_run=per_run, per_group=per_group)
     if len(kinematics_files) > 1:
         fit_series(kinematics_files, config=config, models=models, sharing=sharing, common=common,
-                   table=table_spec(columns, pivot, track))
+                   table=table_spec(columns, pivot, track, rate_hz))
         return
     if sharing:
         raise click.UsageError("--shared, --per-run and --per-group need several records")
     kinematics_file = kinematics_files[0]
     res = fit_stage(kinematics_file, out_dir=common.out, config=config, models=models or None,
-                    table=table_spec(columns, pivot, track), force=common.force, progress=common.progress)
+                    table=table_spec(columns, pivot, track, rate_hz), force=common.force, progress=common.progress)
     finish(res, echo_fit_summary)
 
 

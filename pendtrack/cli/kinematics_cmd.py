@@ -18,14 +18,17 @@ def _columns(ctx: click.Context, param: click.Parameter, value: str | None) -> t
     if value is None:
         return None
     try:
-        return parse_columns(value)
+        return parse_columns(value, check_roles=False)  # the roles with --rate known: TableSpec
     except PendtrackError as exc:
         raise click.BadParameter(str(exc)) from None
 
 
 def table_options(fn: F) -> F:
-    """``--columns``, ``--pivot`` and ``--track`` (:class:`pendtrack.tables.TableSpec`): keywords
-    ``columns, pivot, track``."""
+    """``--columns``, ``--pivot``, ``--track`` and ``--rate`` (:class:`pendtrack.tables.TableSpec`):
+    keywords ``columns, pivot, track, rate_hz``."""
+    fn = click.option("--rate", "rate_hz", type=float, default=None, metavar="HZ",
+                      help="Sampling rate of a table without a time column (a logger's angles at a fixed rate): "
+                           "row k at t = k / HZ.")(fn)
     fn = click.option("--track", default=None, metavar="NAME",
                       help="The point-mass track of a Tracker project (.trk) with several.")(fn)
     fn = click.option("--pivot", type=float, nargs=2, default=None, metavar="X Y",
@@ -38,13 +41,14 @@ def table_options(fn: F) -> F:
                              "header.")(fn)
 
 
-def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | None, track: str | None = None) -> Any:
+def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | None, track: str | None = None,
+               rate_hz: float | None = None) -> Any:
     """The :class:`pendtrack.tables.TableSpec` of the table flags (None if none is given)."""
     from pendtrack.tables import TableSpec
 
-    if columns is None and not pivot and track is None:
+    if columns is None and not pivot and track is None and rate_hz is None:
         return None
-    return TableSpec(columns=columns, pivot=tuple(pivot) if pivot else None, track=track)
+    return TableSpec(columns=columns, pivot=tuple(pivot) if pivot else None, track=track, rate_hz=rate_hz)
 
 
 @click.command("kinematics")
@@ -58,7 +62,7 @@ def table_spec(columns: tuple[str, ...] | None, pivot: tuple[float, float] | Non
 @common_options()
 def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int | None, max_gap_s: float | None,
                min_segment_s: float | None, columns: tuple[str, ...] | None, pivot: tuple[float, float] | None,
-               track: str | None, common: CommonArgs) -> None:
+               track: str | None, rate_hz: float | None, common: CommonArgs) -> None:
     """Savitzky-Golay omega, alpha and the initial analysis of ANGLE -> OUT/kinematics.parquet.
 
     ANGLE is angle.parquet, a Parquet file, a text table of t, theta (or t, x, y with a pivot:
@@ -71,7 +75,7 @@ def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int
     values: dict[str, Any] = {"savgol_window_s": savgol_window_s, "savgol_order": savgol_order,
                               "max_gap_s": max_gap_s, "min_segment_s": min_segment_s}
     config = apply_flags(common.config, "kinematics", **values)
-    res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot, track),
+    res = kinematics_stage(angle_file, out_dir=common.out, config=config, table=table_spec(columns, pivot, track, rate_hz),
                            force=common.force, progress=common.progress)
     if res.skipped:
         click.echo(f"{res.path} is up to date")

@@ -24,6 +24,8 @@ the name in brackets or parentheses or after ``_`` (``t_s``, ``Time [ms]``, ``th
 ``Angle (°)``): s, ms, us/µs, ns, min; rad, mrad, deg/°; m, cm, mm, px. ``--columns`` names
 every column (``t[us],theta[deg]``, ``_`` to ignore one) and overrides a header. Without a
 header, two columns are ``t [s], theta [rad]``; more are refused unless ``--columns`` names them.
+A table without a time column (a logger's angles at a fixed rate) is timed by ``--rate``
+(:class:`TableSpec` ``rate_hz``): row k at ``t = k / rate_hz``.
 
 A column without a unit is read in s or rad, and checked (:mod:`pendtrack.tables.checks`):
 a theta that swings more than a full turn between two turning points is not in rad, and a time

@@ -4,6 +4,7 @@ times, compute theta of x, y, and put it on a uniform grid. See :mod:`pendtrack.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,26 +44,34 @@ class TableSpec:
         Pivot of x, y columns, in their units. None: the caller's ``pivot_fit`` decides.
     track : str, optional
         The point-mass track of a Tracker project with several.
+    rate_hz : float, optional
+        Sampling rate of a text table whose rows carry no time (a logger's angles written at a
+        fixed rate): row k of the table is at ``t = k / rate_hz`` [Hz].
     """
 
     columns: tuple[str, ...] | None = None
     pivot: tuple[float, float] | None = None
     track: str | None = None
+    rate_hz: float | None = None
 
     def __post_init__(self) -> None:
         if self.columns is not None:
-            parse_columns(",".join(self.columns))
+            parse_columns(",".join(self.columns), timed_by_rate=self.rate_hz is not None)
+        if self.rate_hz is not None and not (math.isfinite(self.rate_hz) and self.rate_hz > 0.0):
+            raise ConfigError(f"--rate must be a sampling rate > 0 [Hz], got {self.rate_hz:g}")
 
     @property
     def default(self) -> bool:
         """True when nothing is specified (the file alone decides)."""
-        return self.columns is None and self.pivot is None and self.track is None
+        return self.columns is None and self.pivot is None and self.track is None and self.rate_hz is None
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"columns": None if self.columns is None else list(self.columns),
                                "pivot": None if self.pivot is None else list(self.pivot)}
         if self.track is not None:
             out["track"] = self.track
+        if self.rate_hz is not None:
+            out["rate_hz"] = self.rate_hz
         return out
 
 
@@ -196,6 +205,8 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
     try:
         if spec.track is not None and suffix not in TRACKER_SUFFIXES:
             raise ConfigError("--track applies to Tracker projects (.trk)")
+        if spec.rate_hz is not None and suffix in PARQUET_SUFFIXES | TRACKER_SUFFIXES:
+            raise ConfigError("--rate applies to text tables without a time column; this file carries its times")
         if suffix in PARQUET_SUFFIXES:
             raw = _read_parquet(path, spec)
         elif suffix in TRACKER_SUFFIXES:
@@ -203,7 +214,7 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
                 raise ConfigError("--columns applies to tables; a Tracker project's track is read as t, x, y")
             raw = read_trk(path, spec.track)
         else:
-            raw = read_text(path, spec.columns)
+            raw = read_text(path, spec.columns, rate_hz=spec.rate_hz)
     except ConfigError as exc:
         raise ArtifactError(str(exc), path=path) from None
     repeated = _drop_repeated_rows(raw)

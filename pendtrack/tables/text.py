@@ -173,7 +173,7 @@ def read_lines(path: Path) -> list[tuple[int, str]]:
     return lines
 
 
-def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
+def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | None = None) -> dict[str, Any]:
     """The raw record of a text table (module docstring), in SI units (t [s], theta [rad]).
 
     Parameters
@@ -181,6 +181,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     path : Path
     columns : tuple of str, optional
         ``--columns`` names, one per column, overriding the header.
+    rate_hz : float, optional
+        ``--rate``: the table has no time column; row k is at ``t = k / rate_hz`` [Hz].
 
     Returns
     -------
@@ -197,10 +199,10 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
     width = len(_cells(body[0][1], sep, comma)) if body else 2
     _refuse_ragged_start(body, sep, comma, width)
-    if width == 1 and columns is None:
+    if width == 1 and rate_hz is None:
         raise ConfigError("one column of numbers: pendtrack reads a sample per row with its time (t, theta in "
-                          "columns); a log of angles alone needs its times added as a first column (t = k / rate "
-                          "for one written at a fixed rate)")
+                          "columns); for a log of angles written at a fixed rate, give it with --rate HZ "
+                          "(row k at t = k / rate), and the angle's unit with --columns (e.g. theta[deg])")
     rates = _rate_columns(preamble)
     if columns is not None:
         if body and len(columns) != width:
@@ -221,6 +223,9 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                 # a logger that writes one row per quantity (times, then angles): a record along the rows
                 raise ConfigError(f"{len(body)} rows of {width} values and no header: pendtrack reads one "
                                   f"sample per row (t, theta, ... in columns); transpose the table")
+            if rate_hz is not None and width > 1:
+                raise ConfigError(f"{width} columns, no header and --rate: say which column is the angle with "
+                                  f"--columns (e.g. theta{',_' * (width - 1)})")
             if width > 2:
                 arc = _arc_after_time(body, sep, comma)
                 if width <= MAX_SPELLED and arc:
@@ -234,8 +239,11 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
                     hint = (f"e.g. --columns t,theta,_,... with one name per column, _ for each of the "
                             f"{width - 2} to ignore")
                 raise ConfigError(f"{width} columns and no header: say what they are with --columns; {hint}")
-            cols_or_none = [ColumnName("t", label="t"), ColumnName("theta", label="theta")]
+            cols_or_none = ([ColumnName("theta", label="theta")] if rate_hz is not None else
+                            [ColumnName("t", label="t"), ColumnName("theta", label="theta")])
         cols = cols_or_none
+    if rate_hz is not None:
+        cols = _rate_times(cols, rate_hz)
     try:
         found = roles(cols, where)
     except ConfigError:
@@ -249,6 +257,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     expected = ", ".join(cols[i].describe() for _, i in order)  # type: ignore[union-attr]
     for row, (lineno, line) in enumerate(body):
         cells = _cells(line, sep, comma)
+        if rate_hz is not None:  # the times column that _rate_times added after the table's own
+            cells = [*cells[:width], f"{row / rate_hz!r}"]
         try:
             data[row] = [float(cells[i]) if i < len(cells) and cells[i] else np.nan for _, i in order]
         except ValueError:
@@ -265,6 +275,11 @@ def read_text(path: Path, columns: tuple[str, ...] | None) -> dict[str, Any]:
     if where == "header" and "theta" in found:
         _refuse_placeholder_theta(values["theta"], cols, found, body, sep, comma)
     return raw_record(values, found, cols, "table")
+
+
+def _rate_times(cols: list[ColumnName | None], rate_hz: float) -> list[ColumnName | None]:
+    """``cols`` with the times ``k / rate_hz`` [s] after them (:func:`roles` refuses a time among them)."""
+    return [*cols, ColumnName("t", unit="s", label=f"t = row / {rate_hz:g} Hz", from_rate=True)]
 
 
 def _refuse_placeholder_theta(theta: np.ndarray, cols: list[ColumnName | None], found: dict[str, int],

@@ -67,6 +67,8 @@ class ColumnName:
         An indexed name's number (``theta1``, ``x 2``).
     dataset : str
         The data-set prefix (``Run 1`` of ``Run 1: Time (s)``), '' if none.
+    from_rate : bool
+        Times made from ``--rate`` (row k at k / rate), not a column of the table.
     """
 
     role: str
@@ -76,6 +78,7 @@ class ColumnName:
     label: str = ""
     index: int | None = None
     dataset: str = ""
+    from_rate: bool = False
 
     @property
     def declared(self) -> bool:
@@ -84,8 +87,8 @@ class ColumnName:
 
     def describe(self) -> str:
         """The canonical ``--columns`` spelling of this column (``theta[deg]``, ``y_down[px]``, ``_``)."""
-        if self.role == "_":
-            return "_"
+        if self.role == "_" or self.from_rate:
+            return "_" if self.role == "_" else self.label
         name = "y_down" if self.y_down else self.role
         unit = "deg" if self.unit == "°" else self.unit
         return f"{name}[{unit}]" if unit else name
@@ -167,8 +170,16 @@ def _factor(table: Mapping[str, float], unit: str, label: str, expected: str) ->
     return table[unit]
 
 
-def parse_columns(text: str) -> tuple[str, ...]:
+def parse_columns(text: str, *, check_roles: bool = True, timed_by_rate: bool = False) -> tuple[str, ...]:
     """Split and check a ``--columns`` value (``t,theta,_``, ``t,x,y``, ``t[us],theta[deg]``).
+
+    Parameters
+    ----------
+    text : str
+    check_roles : bool
+        Check that the names make t + theta or t + x + y (False: only that each name is known).
+    timed_by_rate : bool
+        The times come from ``--rate``: the names make theta or x + y, and no t.
 
     Raises
     ------
@@ -183,7 +194,9 @@ def parse_columns(text: str) -> tuple[str, ...]:
             raise ConfigError(f"--columns: unknown column name {n!r} (t, theta, x, y, y_down, or _ to ignore one; "
                               "a unit may follow: theta[deg], t[ms], t[us], x[px])")
         parsed.append(c)
-    roles(parsed, "--columns")
+    if check_roles:
+        roles(parsed + ([ColumnName("t", unit="s", label="--rate", from_rate=True)] if timed_by_rate else []),
+              "--columns")
     return names
 
 
@@ -193,6 +206,8 @@ def columns_hint(cols: Sequence[ColumnName | None], chosen: Mapping[str, int], *
     out = []
     for i, c in enumerate(cols):
         role = next((r for r, j in chosen.items() if j == i), None)
+        if c is not None and c.from_rate:
+            continue
         if role is None or c is None:
             out.append("_")
             continue
@@ -213,6 +228,10 @@ def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
     for i, c in enumerate(cols):
         if c is None or c.role == "_":
             continue
+        if c.role in found and c.from_rate:
+            j = found[c.role]
+            raise ConfigError(f"--rate gives the rows their times, but the {where} names column {j + 1} "
+                              f"({cols[j].label!r}) a time: drop --rate, or ignore that column with --columns (_)")
         if c.role in found:
             dup = dup or (found[c.role], i)
             continue
@@ -231,6 +250,8 @@ def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
         names = ", ".join(repr(c.label) for c in cols if c is not None and c.role != "_") or "none"
         rest = ",_" * max(len(cols) - 2, 0)  # one name per column: the table's own count
         hint = "" if where == "columns" else f"; name them, e.g. --columns t,theta{rest} or --columns t,x,y{rest[2:]}"
+        if missing == "t":
+            hint += " (a table without times, written at a fixed rate: --rate HZ)"
         raise ConfigError(f"{where}: missing column '{missing}' (needs t and theta, or t, x and y; recognised: "
                           f"{names}){hint}")
     if "theta" in found:

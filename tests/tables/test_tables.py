@@ -76,6 +76,10 @@ def _write(folder: Path, form: str) -> tuple[Path, tuple[str, ...]]:
         p = folder / "xydown.txt"
         p.write_text(_lines(T, 100.0 * X, -100.0 * Y))
         return p, ("--columns", "t,x,y_down")
+    if form == "rate":  # a logger's angles alone, one per line at a fixed rate (an Arduino's encoder log)
+        p = folder / "encoder.txt"
+        p.write_text(_lines(np.degrees(THETA)))
+        return p, ("--columns", "theta[deg]", "--rate", repr(RATE))
     if form == "parquet":
         p = folder / "plain.parquet"
         pd.DataFrame({"t": T, "theta": THETA}).to_parquet(p)
@@ -89,15 +93,17 @@ def _write(folder: Path, form: str) -> tuple[Path, tuple[str, ...]]:
 
 
 FORMS = ("plain", "three_columns", "degrees_header", "ms_theta_symbol", "xy_pivot", "xy_fitted", "xy_down_columns",
-         "parquet", "angle_artifact")
+         "rate", "parquet", "angle_artifact")
 
 
 def _spec(flags: tuple[str, ...]) -> TableSpec | None:
     if not flags:
         return None
-    if flags[0] == "--columns":
-        return TableSpec(columns=parse_columns(flags[1]))
-    return TableSpec(pivot=(float(flags[1]), float(flags[2])))
+    if flags[0] == "--pivot":
+        return TableSpec(pivot=(float(flags[1]), float(flags[2])))
+    given = dict(zip(flags[::2], flags[1::2]))
+    return TableSpec(columns=parse_columns(given["--columns"], check_roles=False),
+                     rate_hz=float(given["--rate"]) if "--rate" in given else None)
 
 
 def invoke(*args: str):
@@ -203,6 +209,22 @@ def test_table_flags_make_outputs_stale(tmp_path):
     assert extra["input"]["pivot"]["source"] == "--pivot"
 
 
+@pytest.mark.integration
+def test_a_rate_times_a_log_of_angles_and_is_recorded(tmp_path):
+    src, flags = _write(tmp_path, "rate")
+    out = tmp_path / "k"
+    assert invoke("kinematics", str(src), *flags, "--out", str(out), "-q").exit_code == 0
+    extra = read_artifact(out / "kinematics.parquet", "kinematics").provenance.extra
+    assert extra["input"]["columns"] == ["theta[deg]", "t = row / 60 Hz"]
+    faster = invoke("kinematics", str(src), "--columns", "theta[deg]", "--rate", "120", "--out", str(out), "-q")
+    assert faster.exit_code == 0 and "up to date" not in faster.output
+    k = read_artifact(out / "kinematics.parquet", "kinematics").data
+    np.testing.assert_allclose(k["t"], np.arange(T.size) / 120.0, rtol=0, atol=1e-12)
+    _one_line_error(invoke("kinematics", str(src), "--columns", "theta[deg]", "--rate", "0", "--out",
+                           str(tmp_path / "zero")), "--rate must be a sampling rate > 0")
+    assert not (tmp_path / "zero").exists()
+
+
 # --- column names -------------------------------------------------------------------------
 
 @pytest.mark.parametrize("label, role, scale", [
@@ -246,7 +268,7 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
                                   "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named", "one_column",
-                                  "settings_line"])
+                                  "settings_line", "rate_and_times", "rate_two_columns"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -284,7 +306,15 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
             fragments = (str(src), "column 2 theta", "'Gyroscope x (rad/s)', a rate (an angular velocity)")
     elif case == "one_column":  # angles alone, one per line: read as times ("time going back") before
         src.write_text(_lines(np.degrees(THETA)))
-        fragments = (str(src), "one column of numbers", "needs its times added")
+        fragments = (str(src), "one column of numbers", "give it with --rate HZ")
+    elif case == "rate_and_times":  # --rate on a table that has its times: which times would be meant?
+        src.write_text("t,theta\n" + _lines(T, THETA, sep=","))
+        flags = ("--rate", "60")
+        fragments = (str(src), "--rate gives the rows their times, but the header names column 1 ('t') a time")
+    elif case == "rate_two_columns":  # --rate on two unnamed columns: either could be the angle
+        src.write_text(_lines(THETA, T))
+        flags = ("--rate", "60")
+        fragments = (str(src), "2 columns, no header and --rate", "--columns (e.g. theta,_)")
     elif case == "settings_line":
         # a logger's settings line above one angle per line (jensen-benard/rotary-inverted-pendulum's
         # pendulum_free_swing_data_01.txt: start angle, rate and duration): its 3 numbers were taken for the columns
