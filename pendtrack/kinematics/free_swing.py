@@ -22,6 +22,16 @@ rest by itself does not: Coulomb friction stops it once its amplitude is below o
 loss, and viscous or quadratic drag lets it fade into the band. The catch's half period before the
 rest goes too (the hand takes part of a swing, which is no free swing either).
 
+**The lift.** A record may also begin while a hand still carries the bob up (an encoder's logger that
+starts when the bob passes an angle on its way up): the bob moves away from the bottom and reaches its
+first turning point, where the hand lets go, with more energy ``omega^2/2 + Omega0^2 (1 - cos theta)``
+than it had at the first sample. No free swing gains energy: damping only takes it away. The samples
+before that turning point are a lift when its energy exceeds the first sample's by more than
+:data:`LIFT_RISE`; the first sample's speed comes from a quadratic through the first tenth of a period.
+``Omega0`` from the spectral peak errs by at most half a frequency bin, 1/(2 N) of a record of N
+periods; the test needs :data:`LIFT_MIN_PERIODS` periods, where that error raises the ratio of the two
+energies by at most 17 %, and a bob swinging freely from the first sample cannot gain 30 %.
+
 The band is six times the noise of the samples at rest, and at least 1.5 of a quantised record's
 steps (:mod:`pendtrack.kinematics.rest`). ``Omega0`` comes from theta's strongest spectral
 peak (:func:`~pendtrack.kinematics.differentiate.dominant_period`): at large amplitude it is
@@ -38,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from pendtrack.kinematics.differentiate import dominant_period
-from pendtrack.kinematics.rest import MIN_REST_SAMPLES, leading_rest, smallest_step
+from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, MIN_REST_SAMPLES, leading_rest, smallest_step
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +58,9 @@ CATCH_FACTOR = 4.0  # a catch stops a swing 4 x larger than one half period's lo
 CATCH_BANDS = 4.0  # ... and 4 bands (24 noise sigmas) large: a swing fading into the band is no catch
 CATCH_REST_PERIODS = 1.0  # the rest after a catch lasts a period at least (a short one may be noise)
 CATCH_PERIODS = 3  # the loss per half period is measured over the 3 periods before the catch's half period
+LIFT_RISE = 0.3  # a lift: the energy at the first turning point above 1.3 x the first sample's (module docstring)
+LIFT_MIN_PERIODS = 6  # ... judged on records of this many periods at least (Omega0^2 within 17 %)
+LIFT_FIT_PERIODS = 0.1  # the first sample's angle and speed: a quadratic through this share of a period
 
 
 @dataclass(frozen=True)
@@ -100,6 +113,28 @@ class Catch:
     loss: float
 
 
+@dataclass(frozen=True)
+class Lift:
+    """A hand's lift found at the start of a record.
+
+    Attributes
+    ----------
+    n : int
+        Samples before the release (the first ``n`` rows are not a free swing).
+    release_s : float
+        Time of the first turning point, where the hand let go [s].
+    theta_r : float
+        The angle there [rad].
+    energy_rise : float
+        The energy there over the first sample's, minus 1.
+    """
+
+    n: int
+    release_s: float
+    theta_r: float
+    energy_rise: float
+
+
 def _usable(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     idx = np.flatnonzero(np.asarray(ok, dtype=bool) & np.isfinite(theta))
     if idx.size < 4 * MIN_REST_SAMPLES:
@@ -149,6 +184,52 @@ def find_hold(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Hold | None:
     if stay <= max(HOLD_FACTOR * t_free, MIN_HOLD_S):
         return None
     return Hold(n=int(idx[dep]), release_s=float(tt[dep]), theta_h=level, t_free=t_free)
+
+
+def find_lift(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Lift | None:
+    """The lift at the start of a record, or None.
+
+    Parameters
+    ----------
+    t, theta, ok : ndarray
+        As for :func:`find_hold` (the lift is looked for in the usable samples).
+
+    Returns
+    -------
+    Lift or None
+        None when the first samples do not move away from the bottom, or the bob reaches its first
+        turning point with no more energy than a free swing could have brought there (module docstring).
+    """
+    usable = _usable(t, theta, ok)
+    if usable is None:
+        return None
+    idx, tt, th = usable
+    h = float(np.median(np.diff(tt)))
+    period = dominant_period(th, h)
+    if not math.isfinite(period) or tt[-1] - tt[0] < LIFT_MIN_PERIODS * period:
+        return None
+    m = max(MIN_REST_SAMPLES, int(LIFT_FIT_PERIODS * period / h))
+    quad = np.polyfit(tt[:m] - tt[0], th[:m], 2)
+    theta0, omega0 = float(quad[2]), float(quad[1])
+    if not theta0 * omega0 > 0.0:  # at rest or on its way down: no lift
+        return None
+    side = math.copysign(1.0, theta0)
+    # the first turning point: the farthest from the bottom before the bob comes back by more than the noise
+    away = side * th
+    noise = 1.4826 * float(np.median(np.abs(np.diff(th, 2)))) / math.sqrt(6.0)
+    band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(th))
+    back = np.flatnonzero(np.maximum.accumulate(away) - away > band)
+    if back.size == 0:
+        return None
+    k = int(np.argmax(away[:back[0]]))
+    if k < m:
+        return None
+    w2 = (2.0 * math.pi / period) ** 2
+    e_start = 0.5 * omega0 * omega0 + w2 * (1.0 - math.cos(theta0))
+    e_turn = w2 * (1.0 - math.cos(float(th[k])))
+    if not e_turn > (1.0 + LIFT_RISE) * e_start:
+        return None
+    return Lift(n=int(idx[k]), release_s=float(tt[k]), theta_r=float(th[k]), energy_rise=e_turn / e_start - 1.0)
 
 
 def find_catch(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Catch | None:
@@ -207,16 +288,18 @@ def find_catch(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Catch | None
 
 
 def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any = None
-               ) -> tuple[np.ndarray, Hold | None, Catch | None]:
-    """``ok`` with a hold's (:func:`find_hold`) and a catch's (:func:`find_catch`) samples set False.
+               ) -> tuple[np.ndarray, Hold | Lift | None, Catch | None]:
+    """``ok`` with a hold's (:func:`find_hold`), a lift's (:func:`find_lift`, after any hold) and a
+    catch's (:func:`find_catch`) samples set False.
 
-    The rows stay: nothing of the record is lost, those samples are only not a free swing. A hold
-    or catch found is logged as a warning naming ``source``.
+    The rows stay: nothing of the record is lost, those samples are only not a free swing. A hold,
+    lift or catch found is logged as a warning naming ``source``.
 
     Returns
     -------
     ok : ndarray of bool
-    hold : Hold or None
+    start : Hold or Lift or None
+        What precedes the free swing (a lift after a hold: the lift, which ends later).
     catch : Catch or None
     """
     t = np.asarray(t, dtype=np.float64)
@@ -228,6 +311,13 @@ def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any 
         log.warning("%s: the bob is at rest at %.3g rad until t = %.4g s, longer than a free pendulum stays there "
                     "(%.2g s): the %d samples before are a hold, not fitted", source, hold.theta_h, hold.release_s,
                     hold.t_free, hold.n)
+    lift = find_lift(t, theta, ok)
+    if lift is not None:
+        ok[:lift.n] = False
+        log.warning("%s: the bob moves away from the bottom and reaches its first turning point, %.3g rad at t = "
+                    "%.4g s, with %.0f %% more energy than at the start, which no free swing gains: a hand carried "
+                    "it there; the %d samples before are not fitted", source, lift.theta_r, lift.release_s,
+                    100.0 * lift.energy_rise, lift.n)
     catch = find_catch(t, theta, ok)
     if catch is not None:
         ok[catch.n:] = False
@@ -235,4 +325,4 @@ def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any 
                     "(its damping took %.2g rad per half period): it was caught; the %d samples from t = %.4g s "
                     "are not fitted", source, catch.theta_c, catch.rest_s, catch.amplitude, catch.loss,
                     theta.size - catch.n, catch.free_until_s)
-    return ok, hold, catch
+    return ok, (lift or hold), catch

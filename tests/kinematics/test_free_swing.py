@@ -1,5 +1,5 @@
-"""A hold before the release and a catch at the end (pendtrack.kinematics.free_swing): found, left out of
-the fit, and never invented.
+"""A hold or a hand's lift before the release and a catch at the end (pendtrack.kinematics.free_swing):
+found, left out of the fit, and never invented.
 
 A logger often runs before the bob is let go, and after it is caught. Measured before either was found:
 a standard fit of a 30-s record at 30 fps whose first 1.5 s held the bob at 1 rad ended 0.44 rad rms from
@@ -20,7 +20,7 @@ from factory import swing
 from pendtrack.artifacts import read_metadata
 from pendtrack.cli import cli
 from pendtrack.discovery.inputs import read_angle_series
-from pendtrack.kinematics.free_swing import find_catch, find_hold
+from pendtrack.kinematics.free_swing import find_catch, find_hold, find_lift
 
 PARAMS = {"Omega0": 6.0, "C1": 0.02, "C0": 0.005, "C2": 0.01}  # the standard model, a lab bob's size of damping
 
@@ -67,6 +67,45 @@ def test_a_record_starting_mid_swing_is_not_a_hold():
     assert find_hold(t, theta, np.ones(t.size, bool)) is None
 
 
+def _lifted(lift_s: float, theta_from: float, theta_to: float, *, fps: float, seconds: float = 20.0,
+            noise: float = 0.002, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A hand carries the bob up from ``theta_from`` to ``theta_to`` in ``lift_s``, slowing to rest there
+    (``theta_to - (theta_to - theta_from) (1 - s)^2``), and lets go: then a free swing from rest."""
+    n = int(round(lift_s * fps))
+    s = np.arange(n) / (lift_s * fps)
+    carried = theta_to - (theta_to - theta_from) * (1.0 - s) ** 2
+    _, free = swing("standard", PARAMS, seconds=seconds - lift_s, theta0=theta_to, fps=fps)
+    clean = np.concatenate([carried, free])
+    theta = clean + np.random.default_rng(seed).normal(0.0, noise, clean.size)
+    return np.arange(clean.size) / fps, theta
+
+
+@pytest.mark.parametrize("fps", [60.0, 120.0, 1000.0])
+def test_a_hands_lift_is_found_up_to_the_release(fps):
+    # an encoder's logger that starts as the bob passes 1.2 rad on its way up in the hand (as
+    # jensen-benard/rotary-inverted-pendulum's free-swing logs at 1 kHz, triggered at 90 degrees): 0.4 s later
+    # the hand lets go at 2.3 rad. Energy there 36 (1 - cos 2.3) = 60 against 5.5^2 / 2 + 36 (1 - cos 1.2) = 38
+    # at the first sample: 57 % more
+    t, theta = _lifted(0.4, 1.2, 2.3, fps=fps)
+    lift = find_lift(t, theta, np.ones(t.size, bool))
+    # ... or less: Omega0 from the spectral peak (a swing from 2.3 rad: a longer period) lowers the turning
+    # point's energy against the first sample's
+    assert lift is not None and 0.3 < lift.energy_rise <= 0.6
+    # the turning point is flat: within 12 mrad (the band, 6 x 2 mrad) of 2.3 rad for 0.03 s either side
+    assert abs(lift.release_s - 0.4) <= 0.03 + 2.0 / fps
+    assert lift.theta_r == pytest.approx(2.3, abs=0.012)
+    assert find_hold(t, theta, np.ones(t.size, bool)) is None
+
+
+@pytest.mark.parametrize("theta0, omega0, fps", [(0.3, 1.5, 60.0), (2.0, 2.0, 120.0), (1.0, 4.0, 30.0),
+                                                 (2.5, 0.5, 1000.0), (1.0, 0.0, 120.0), (-1.5, -3.0, 60.0)])
+def test_a_free_swing_from_its_first_sample_is_no_lift(theta0, omega0, fps):
+    # moving away from the bottom at the first sample (or at rest): its energy at the first turning point is the
+    # first sample's less what damping took
+    t, theta = swing("standard", PARAMS, seconds=20.0, theta0=theta0, omega0=omega0, fps=fps, noise=0.002)
+    assert find_lift(t, theta, np.ones(t.size, bool)) is None
+
+
 def _write(path, t, theta):
     path.write_text("t theta\n" + "\n".join(f"{float(a)!r} {float(b)!r}" for a, b in zip(t, theta)) + "\n")
     return path
@@ -102,6 +141,21 @@ def test_fit_of_a_held_record_starts_at_the_release(tmp_path, caplog):
 
     # Omega0's standard error on 28.5 s at 30 fps with 2 mrad of noise is 5e-5 rad/s (fit.json); 10 of them
     _fits_the_free_swing(src, tmp_path / "f", omega0_tol=5e-4)
+
+
+@pytest.mark.integration
+def test_fit_of_a_lifted_record_starts_at_the_release(tmp_path, caplog):
+    t, theta = _lifted(0.4, 1.2, 2.3, fps=60.0, seconds=20.0, seed=5)
+    src = _write(tmp_path / "lifted.txt", t, theta)
+    with caplog.at_level("WARNING"):
+        res = CliRunner().invoke(cli, ["kinematics", str(src), "--out", str(tmp_path / "k"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert any("lifted.txt: the bob moves away from the bottom" in r.getMessage() and "a hand carried it there"
+               in r.getMessage() for r in caplog.records)
+    extra = read_metadata(tmp_path / "k" / "kinematics.parquet")["extra"]
+    assert abs(extra["held_until_s"] - 0.4) <= 0.03 + 2.0 / 60.0
+    # Omega0's standard error on 19.6 s at 60 fps with 2 mrad of noise is about 1e-4 rad/s; 10 of them
+    _fits_the_free_swing(src, tmp_path / "f", omega0_tol=1e-3)
 
 
 def _caught(at: str, *, fps: float, seconds: float = 25.0, rest_s: float = 3.0, noise: float = 0.002, seed: int = 0,
