@@ -6,7 +6,9 @@ Blank lines and lines starting with ``#`` or ``%`` are skipped. The first line t
 number starts the data; the lines before it are the preamble. The data's
 separator is a tab, a semicolon, a comma or white space (the one that splits the first data
 line into the most numbers and fewest other cells), with a decimal comma accepted after a tab,
-semicolon or space (phyphox's and European spreadsheets' exports). Empty cells are missing
+semicolon or space (phyphox's and European spreadsheets' exports). A cell holding a bracketed
+group of numbers, as Python writes a tuple or a numpy array (``"(1392, 685)"``, ``[1392 685]``,
+numpy 2's ``(np.float64(1392.0), np.float64(685.0))``), is as many cells, one per number. Empty cells are missing
 values: a row whose used cells are all empty is skipped (a shorter run beside a longer one), a
 missing theta, x or y makes the row not ok, a missing time with values is an error.
 
@@ -18,12 +20,15 @@ Tracker export's first line, the track name ``mass A``, is passed over, as are L
 Logger Pro's text export) gives the units of the columns that have none. Header fields may be
 quoted (``"Time (s)"``). Names are read by :func:`pendtrack.tables.units.parse_column_name`.
 A Tracker export (subscripted names such as ``v_{x}``, ``θ_{r}``) is read from its ``x``,
-``y``: its ``θ`` columns are angles about Tracker's origin, not the pendulum's.
+``y``: its ``θ`` columns are angles about Tracker's origin, not the pendulum's. A header field over
+a pair of numbers that names a position (``position``, ``centroid``, ...: :data:`PAIR_NAMES`) is the
+bob's x and y, y counting up or down as the path's arc shows (:func:`_arc`).
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import re
 from pathlib import Path
@@ -38,6 +43,14 @@ from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_h
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
 _LAYOUTS = (("\t", False), ("\t", True), (";", False), (";", True), (",", False), (None, False), (None, True))
+_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+# a tuple or array of numbers in one cell: "(1392, 685)", [1392 685], (0.51; 0.22), optionally quoted
+_GROUP_RE = re.compile(rf"\"?[(\[]\s*({_NUM}(?:\s*[,;]?\s*{_NUM})+)\s*[)\]]\"?")
+_SCALAR_RE = re.compile(rf"\bnp\.(?:float|u?int)\d*\(({_NUM})\)")  # numpy >= 2's repr of a scalar: np.float64(1.5)
+_GROUP_SEP = "\x1f"  # joins a group's numbers until the line is split (str.split() splits at it too)
+#: Header names of a cell that holds the bob's (x, y) pair.
+PAIR_NAMES = frozenset({"position", "positions", "pos", "point", "points", "centroid", "center", "centre",
+                        "coordinates", "coords", "location", "xy", "x,y", "(x, y)", "(x,y)", "bob"})
 ROLE_WORDS = {"theta": "an angle", "x": "a position", "y": "a position"}
 RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and does not integrate a sensor's rates; "
                "export the angle, or film the swing and run pendtrack on the video")
@@ -46,11 +59,30 @@ RAGGED_SHARE = 0.9  # rows below a first row of another width that make it a lin
 MAX_SPELLED = 8  # a --columns hint spelled out in full up to this many columns (one line stays readable)
 
 
-def _cells(line: str, sep: str | None, decimal_comma: bool) -> list[str]:
-    cells = line.split() if sep is None else [c.strip().strip('"').strip() for c in line.split(sep)]
+def _groups_joined(line: str) -> str:
+    """``line`` with each bracketed group of numbers (:data:`_GROUP_RE`) written as its numbers joined by
+    :data:`_GROUP_SEP`."""
+    line = _SCALAR_RE.sub(r"\1", line)
+    return _GROUP_RE.sub(lambda m: _GROUP_SEP.join(re.findall(_NUM, m.group(1))), line)
+
+
+def _split(line: str, sep: str | None) -> list[str]:
+    """The cells of ``line`` at ``sep`` (None: white space), a group of numbers still one cell."""
+    cells = (line.replace(_GROUP_SEP, "\x00").split() if sep is None
+             else [c.strip().strip('"').strip() for c in line.split(sep)])
     if sep is not None and len(cells) > 1 and cells[-1] == "":
         cells = cells[:-1]  # a trailing separator
+    return [c.replace("\x00", _GROUP_SEP) for c in cells]
+
+
+def _cells(line: str, sep: str | None, decimal_comma: bool) -> list[str]:
+    cells = [part for c in _split(_groups_joined(line), sep) for part in c.split(_GROUP_SEP)]
     return [c.replace(",", ".") for c in cells] if decimal_comma else cells
+
+
+def group_sizes(line: str, sep: str | None) -> list[int]:
+    """How many numbers each cell of a data line holds: 1, or a bracketed group's count."""
+    return [c.count(_GROUP_SEP) + 1 for c in _split(_groups_joined(line), sep)]
 
 
 def _layout(line: str) -> tuple[str | None, bool] | None:
@@ -136,13 +168,27 @@ def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]
     return out
 
 
-def _header(preamble: list[tuple[int, str]]) -> list[ColumnName | None] | None:
-    """The columns named by the preamble (see the module docstring); None without a preamble."""
+def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnName | None] | None:
+    """The columns named by the preamble (see the module docstring); None without a preamble.
+
+    ``sizes``: the numbers each cell of the first data line holds (:func:`group_sizes`). A header
+    line with one field per cell names a pair cell's two columns by :func:`_pair_names`.
+    """
     if not preamble:
         return None
+    pairs = len(sizes) != sum(sizes)
+
+    def names(line: str) -> list[ColumnName | None] | None:
+        fields = header_fields(line)
+        cols = _parse_all(fields)
+        if cols is not None and pairs and len(fields) == len(sizes):
+            cols = [c for f, col, k in zip(fields, cols, sizes)
+                    for c in (_pair_names(f) if k == 2 else [col if k == 1 else None] * k)]
+        return cols
+
     chosen = None
     for k in range(len(preamble) - 1, -1, -1):
-        if _names_columns(_parse_all(header_fields(preamble[k][1]))):
+        if _names_columns(names(preamble[k][1])):
             chosen = k
             break
     if chosen is None:  # the last line, for its error
@@ -151,9 +197,25 @@ def _header(preamble: list[tuple[int, str]]) -> list[ColumnName | None] | None:
     if chosen + 1 < len(preamble):
         fields = _with_units(fields, header_fields(preamble[chosen + 1][1]))
     cols = [parse_column_name(f) for f in fields]
+    if pairs and len(fields) == len(sizes):
+        cols = [c for f, col, k in zip(fields, cols, sizes)
+                for c in (_pair_names(f) if k == 2 else [col if k == 1 else None] * k)]
     if any("_{" in f for f in fields) and {"x", "y"} <= {c.role for c in cols if c is not None}:
         cols = [None if c is not None and c.role == "theta" else c for c in cols]  # Tracker's θ: about its origin
     return cols
+
+
+def _pair_names(field: str) -> list[ColumnName | None]:
+    """The two columns of a header field over a pair of numbers: x and y if it names a position
+    (:data:`PAIR_NAMES`, a unit allowed: ``position (px)``), else two ignored columns. y counts
+    upwards here; :func:`read_text` turns it downwards when the path's arc says so."""
+    name, unit = split_unit(field.strip().strip('"').strip().lower())
+    if name not in PAIR_NAMES:
+        return [None, None]
+    x, y = parse_column_name(f"x [{unit}]" if unit else "x"), parse_column_name(f"y [{unit}]" if unit else "y")
+    label = field.strip().strip('"').strip()
+    return [dataclasses.replace(x, label=f"{label} (x)", from_pair=True),
+            dataclasses.replace(y, label=f"{label} (y)", from_pair=True)]
 
 
 def read_lines(path: Path) -> list[tuple[int, str]]:
@@ -206,8 +268,11 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     rates = _rate_columns(preamble)
     if columns is not None:
         if body and len(columns) != width:
+            sizes = group_sizes(body[0][1], sep)
+            groups = "" if width == len(sizes) else (
+                f"; a bracketed group such as {_GROUP_RE.search(body[0][1]).group(0)} is one column per number")  # type: ignore[union-attr]
             raise ConfigError(f"--columns names {len(columns)} columns, the table has {width} (first data line "
-                              f"{body[0][0]}): add _ for each column to ignore")
+                              f"{body[0][0]}{groups}): add _ for each column to ignore")
         cols = [parse_column_name(n) for n in columns]
         where = "--columns"
         for i, c in enumerate(cols):
@@ -216,8 +281,10 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                                   f"{rates[i][0]!r}, a rate ({rates[i][1]}), not {ROLE_WORDS[c.role]}: "
                                   f"{RATE_ADVICE}")
     else:
-        cols_or_none = _header(preamble)
+        cols_or_none = _header(preamble, group_sizes(body[0][1], sep))
         where = "header"
+        if cols_or_none is not None:
+            cols_or_none = _pair_direction(cols_or_none, body, sep, comma)
         if cols_or_none is None:
             if width > 2 and len(body) < width:
                 # a logger that writes one row per quantity (times, then angles): a record along the rows
@@ -227,7 +294,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                 raise ConfigError(f"{width} columns, no header and --rate: say which column is the angle with "
                                   f"--columns (e.g. theta{',_' * (width - 1)})")
             if width > 2:
-                arc = _arc_after_time(body, sep, comma)
+                arc = _arc(body, sep, comma, 1, 2)
                 if width <= MAX_SPELLED and arc:
                     hint = (f"columns 2 and 3 trace a pendulum's arc: add --columns t,{arc}{',_' * (width - 3)} if "
                             f"they are t [s] and the bob's positions ({arc}: {ARC_WORDS[arc]}), or --columns "
@@ -311,15 +378,50 @@ ARC_SHARE = 0.25  # ... over the record's first quarter, where the swing is wide
 ARC_WORDS = {"x,y": "y upwards", "x,y_down": "y counting downwards, as image rows do"}
 
 
-def _arc_after_time(body: list[tuple[int, str]], sep: str | None, comma: bool) -> str | None:
-    """``"x,y"`` or ``"x,y_down"`` when a headerless table's columns 2 and 3 look like the bob's positions.
+def _pair_direction(cols: list[ColumnName | None], body: list[tuple[int, str]], sep: str | None,
+                    comma: bool) -> list[ColumnName | None]:
+    """``cols`` with the y of a header's pair cell (:func:`_pair_names`) counting downwards if the path's arc
+    curves that way (image rows); a ConfigError if the path shows no arc to tell."""
+    pair = [i for i, c in enumerate(cols) if c is not None and c.from_pair]
+    if len(pair) != 2:
+        return cols
+    arc = _arc(body, sep, comma, *pair)
+    if arc is None:
+        label = cols[pair[0]].label.removesuffix(" (x)")  # type: ignore[union-attr]
+        raise ConfigError(f"column {label!r} holds (x, y) pairs, but their path shows no pendulum's arc to tell "
+                          f"which way y counts: name the columns with --columns: {cols_hint_pair(cols, pair)}")
+    if arc == "x,y_down":
+        y = cols[pair[1]]
+        cols = [*cols]
+        cols[pair[1]] = dataclasses.replace(y, y_down=True)  # type: ignore[arg-type]
+    return cols
+
+
+def cols_hint_pair(cols: list[ColumnName | None], pair: list[int]) -> str:
+    """``--columns`` spellings for a table whose pair cell is columns ``pair``: y up, then y down."""
+    def spell(y_name: str) -> str:
+        names = []
+        for i, c in enumerate(cols):
+            if i == pair[0]:
+                names.append("x")
+            elif i == pair[1]:
+                names.append(y_name)
+            else:
+                names.append(c.describe() if c is not None and c.role in ("t", "theta") else "_")
+        return ",".join(names)
+    return f"{spell('y')} if y counts upwards, {spell('y_down')} if it counts image rows downwards"
+
+
+def _arc(body: list[tuple[int, str]], sep: str | None, comma: bool, ix: int, iy: int) -> str | None:
+    """``"x,y"`` or ``"x,y_down"`` when columns ``ix`` and ``iy`` (0-based) look like the bob's positions.
 
     A bob swinging on a circle about a pivot above it has ``y = y_bottom + x^2 / 2L + ...`` near the
     bottom: y is a parabola in x, curving up when y counts upwards and down when it counts image rows
     downwards. An angle beside another quantity (omega, an uncertainty, a fit residual) is not.
     """
     cells = [_cells(line, sep, comma) for _, line in body]
-    xy = np.array([[_number(c[1]), _number(c[2])] if len(c) > 2 else [math.nan, math.nan] for c in cells])
+    xy = np.array([[_number(c[ix]), _number(c[iy])] if len(c) > max(ix, iy) else [math.nan, math.nan]
+                   for c in cells])
     xy = xy[np.all(np.isfinite(xy), axis=1)]
     xy = xy[: max(int(ARC_SHARE * xy.shape[0]), 10)]
     if xy.shape[0] < 10:

@@ -69,6 +69,8 @@ class ColumnName:
         The data-set prefix (``Run 1`` of ``Run 1: Time (s)``), '' if none.
     from_rate : bool
         Times made from ``--rate`` (row k at k / rate), not a column of the table.
+    from_pair : bool
+        One of the two numbers of a header field's (x, y) pair cell (``"(1392, 685)"`` under ``position``).
     """
 
     role: str
@@ -79,6 +81,7 @@ class ColumnName:
     index: int | None = None
     dataset: str = ""
     from_rate: bool = False
+    from_pair: bool = False
 
     @property
     def declared(self) -> bool:

@@ -455,6 +455,54 @@ def test_not_a_tracker_project(tmp_path):
         read_record(src)
 
 
+# --- a Python tracker's CSV: the bob's (x, y) written as a tuple or an array in one cell ---------
+
+U, V = 640.0 + 1000.0 * X, 600.0 - 1000.0 * Y  # image pixels of the bob: x right, rows counting downwards
+
+
+@pytest.mark.parametrize("scalars", [np.ndarray.tolist, list], ids=["floats", "numpy_scalars"])
+def test_positions_written_as_python_tuples_read_like_their_columns(tmp_path, scalars):
+    # an OpenCV tracker's DictWriter rows ("position,time,speed"; the tuple str()-ed; "\r\r\n" as
+    # csv writes in text mode on Windows) read as x, y_down: the same angles as the columns written out.
+    # Numpy 2 writes a tuple of its scalars as "(np.float64(1392.5), np.float64(685.0))".
+    src = tmp_path / "movement_data.csv"
+    src.write_bytes(("position,time,speed\r\r\n" + "".join(
+        f'"{(u, v)!r}",{t!r},0.5\r\r\n' for u, v, t in zip(scalars(U), scalars(V), T.tolist()))).encode())
+    plain = tmp_path / "plain.csv"
+    plain.write_text("t,x,y_down\n" + _rows(T, U, V))
+    rec, ref = read_input(src), read_input(plain)
+    np.testing.assert_array_equal(rec.theta, ref.theta)
+    # and they are the swing's angles (the pivot from the circle fit: exact positions, float rounding)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-6)
+
+
+def test_positions_written_as_numpy_arrays_with_y_up(tmp_path):
+    # "[x y]" as numpy prints an array, white space between cells, y counting upwards [mm]
+    src = tmp_path / "track.txt"
+    src.write_text("t  centroid (mm)\n" + "".join(
+        f"{t!r}  [{1000.0 * x!r} {1000.0 * y!r}]\n" for t, x, y in zip(T.tolist(), X.tolist(), Y.tolist())))
+    rec = read_input(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-6)
+
+
+def test_a_pair_column_without_an_arc_names_both_directions(tmp_path):
+    # a marker sliding along a straight line: its path cannot tell which way y counts
+    src = tmp_path / "slide.csv"
+    src.write_text("position,time\n" + "".join(f'"({u!r}, 300.0)",{t!r}\n' for u, t in zip(U.tolist(), T.tolist())))
+    _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"), str(src),
+                    "holds (x, y) pairs", "--columns: x,y,t if y counts upwards, x,y_down,t if")
+    assert not (tmp_path / "o").exists()
+
+
+def test_columns_of_a_table_with_pairs_count_each_number(tmp_path):
+    src = tmp_path / "movement_data.csv"
+    src.write_text("position,time\n" + "".join(f'"({u!r}, {v!r})",{t!r}\n' for u, v, t in zip(*(a.tolist() for a in (U, V, T)))))
+    _one_line_error(invoke("kinematics", str(src), "--columns", "x,y_down,t,_", "--out", str(tmp_path / "o"), "-q"),
+                    "--columns names 4 columns, the table has 3", "is one column per number")
+    rec = read_record(src, spec=TableSpec(columns=("x", "y_down", "t"), pivot=(640.0 + 1000.0 * PX, 600.0 - 1000.0 * PY)))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-6)
+
+
 # --- legitimate radians stay radians --------------------------------------------------------------
 
 def test_real_records_read_without_unit_errors():
