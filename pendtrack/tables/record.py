@@ -17,6 +17,7 @@ from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.gitlfs import is_lfs_pointer, lfs_message
 from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds
+from pendtrack.tables.rounded_times import retime_rounded
 from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, resample_irregular,
                                    resample_jittered, time_layout)
 from pendtrack.tables.text import raw_record, read_text
@@ -217,12 +218,24 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz)
     except ConfigError as exc:
         raise ArtifactError(str(exc), path=path) from None
+    retimed = retime_rounded(raw["t"], raw["t_unit"]) if raw.get("t_unit") is not None else None
+    if retimed is not None:  # rows a frame apart, their times written too coarsely to tell them apart
+        raw["t"] = retimed.t
     repeated = _drop_repeated_rows(raw)
     t, ok = raw["t"], raw["ok"]
-    _check_times(t, path)
+    _check_times(t, path, unit=raw.get("t_unit"))
     _check_units(raw, path)
     info: dict[str, Any] = {"kind": raw["kind"], "columns": raw["labels"], "pivot": None, "resampled": None,
                             "warnings": []}
+    if retimed is not None:
+        info["retimed"] = retimed.describe()
+        text = (f"the times are written to {retimed.coarsest:g} s at their coarsest, more coarsely than the rows are "
+                f"spaced ({retimed.n_repeated} rows repeat the time before them): each row is read as the next "
+                f"sample of a uniform grid of {1e3 * retimed.step:.6g} ms, within every "
+                "written time's rounding; if the rate is known, --rate HZ with the time column named _ in --columns "
+                "times the rows exactly")
+        log.warning("%s: %s", path, text)
+        info["warnings"].append(text)
     if repeated:
         text = (f"{repeated} rows repeat the row before them exactly (a logger writing one sample twice): "
                 "each is read once")
@@ -289,8 +302,12 @@ def _drop_repeated_rows(raw: dict[str, Any]) -> int:
     return int(same.sum())
 
 
-def _check_times(t: np.ndarray, path: Path) -> None:
-    """Finite, strictly increasing times: the only times that are refused are unusable ones."""
+def _check_times(t: np.ndarray, path: Path, *, unit: np.ndarray | None = None) -> None:
+    """Finite, strictly increasing times: the only times that are refused are unusable ones.
+
+    ``unit``: each written time's last-digit unit [s] (a text table's); a repeated time written more
+    coarsely than the rows are spaced is named as such, with the ways out.
+    """
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise ArtifactError(f"row {bad[0]} has a non-finite time", path=path)
@@ -300,8 +317,16 @@ def _check_times(t: np.ndarray, path: Path) -> None:
         n_same = int(np.count_nonzero(steps == 0))
         what = ("time going back" if steps[i] < 0 else "a repeated time" if n_same == 1 else
                 f"a repeated time (one of {n_same})")
+        why = ""
+        if unit is not None and steps[i] == 0 and np.any(steps > 0) and unit.size == t.size:
+            spacing = float(np.median(steps[steps > 0]))
+            if unit[i + 1] > spacing:
+                why = (f"; the times are written to {unit[i + 1]:g} s there, more coarsely than the rows' "
+                       f"{1e3 * spacing:.3g}-ms spacing, and the rows do not fit one uniform grid within that "
+                       "rounding: write the times with more digits, or time the rows with --rate HZ (naming the "
+                       "time column _ in --columns)")
         raise ArtifactError(f"times must increase strictly: {what}, t[{i + 1}] = "
-                            f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s", path=path)
+                            f"{t[i + 1]:g} s after t[{i}] = {t[i]:g} s{why}", path=path)
 
 
 def _check_units(raw: dict[str, Any], path: Path) -> None:

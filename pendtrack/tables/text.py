@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import ConfigError
+from pendtrack.tables.rounded_times import digit_unit
 from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_hint, parse_column_name, roles,
                                     split_unit)
 
@@ -322,6 +323,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     order = sorted(found.items(), key=lambda kv: kv[1])
     data = np.full((len(body), len(order)), np.nan)
     expected = ", ".join(cols[i].describe() for _, i in order)  # type: ignore[union-attr]
+    t_unit = np.full(len(body), np.nan)  # each written time's last-digit unit (rounded_times)
     for row, (lineno, line) in enumerate(body):
         cells = _cells(line, sep, comma)
         if rate_hz is not None:  # the times column that _rate_times added after the table's own
@@ -330,18 +332,24 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
             data[row] = [float(cells[i]) if i < len(cells) and cells[i] else np.nan for _, i in order]
         except ValueError:
             raise ConfigError(f"line {lineno}: expected numbers {expected}, got {line[:60]!r}") from None
+        if rate_hz is None and found["t"] < len(cells):
+            t_unit[row] = digit_unit(cells[found["t"]])
     present = ~np.all(np.isnan(data), axis=1)
     k_t = [role for role, _ in order].index("t")
     no_time = present & np.isnan(data[:, k_t])
     if np.any(no_time):
         raise ConfigError(f"line {body[int(np.argmax(no_time))][0]}: values without a time")
     data = data[present]
+    t_unit = t_unit[present] * cols[found["t"]].scale  # type: ignore[union-attr]
     # t and theta in s and rad; x and y as written (the pivot is in their units)
     values = {role: data[:, k] * (cols[i].scale if role in ("t", "theta") else 1.0)  # type: ignore[union-attr]
               for k, (role, i) in enumerate(order)}
     if where == "header" and "theta" in found:
         _refuse_placeholder_theta(values["theta"], cols, found, body, sep, comma)
-    return raw_record(values, found, cols, "table")
+    record = raw_record(values, found, cols, "table")
+    if rate_hz is None:
+        record["t_unit"] = t_unit
+    return record
 
 
 def _rate_times(cols: list[ColumnName | None], rate_hz: float) -> list[ColumnName | None]:

@@ -16,6 +16,7 @@ from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.models import get_model, simulate
 from pendtrack.stages.kinematics import read_input
 from pendtrack.tables import TableSpec, parse_column_name, read_record
+from pendtrack.tables.rounded_times import digit_unit
 from pendtrack.tables.trk import image_to_world
 from test_tables import _one_line_error, invoke
 
@@ -453,6 +454,49 @@ def test_not_a_tracker_project(tmp_path):
     src.write_text("t theta\n")
     with pytest.raises(ArtifactError, match="not a readable Tracker project"):
         read_record(src)
+
+
+# --- times written more coarsely than the rows are spaced (a spreadsheet's 0.00E+00 format) -------
+
+FPS30 = 30.0
+T30 = np.arange(int(20.0 * FPS30)) / FPS30  # 20 s: from 10 s on, three significant digits are 0.1 s
+THETA30 = simulate(get_model("standard"), SWING, T30, theta0=1.0, omega0=0.0).theta
+X30, Y30 = PX + L * np.sin(THETA30), PY - L * np.cos(THETA30)
+
+
+def _excel_tracker(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> str:
+    # a Tracker export saved from a spreadsheet: the track name padded with commas, the theta column's
+    # name lost to "???", times in scientific format to three significant digits
+    return "mass_A,,,,\nt,x,y,???,err\n" + "".join(
+        f"{a:.2E},{b!r},{c!r},{np.degrees(math.atan2(b, -c)):.2E},5.00E-01\n"
+        for a, b, c in zip(t.tolist(), x.tolist(), y.tolist()))
+
+
+@pytest.mark.parametrize("cell, unit", [("1.00E+01", 0.1), ("3.33E-02", 1e-4), ("0.033", 1e-3), ("12", 1.0),
+                                        ("-8.73E+02", 1.0), ("1,5", math.nan), ("nan", math.nan)])
+def test_the_unit_of_a_written_times_last_digit(cell, unit):
+    assert digit_unit(cell) == pytest.approx(unit, rel=1e-12, nan_ok=True)
+
+
+def test_times_rounded_to_three_significant_digits_are_read_on_their_grid(tmp_path):
+    src = tmp_path / "1 Data.csv"
+    src.write_text(_excel_tracker(T30, X30, Y30))
+    rec = read_record(src, spec=TableSpec(pivot=(PX, PY)))
+    # the rows' grid is pinned by the early times (written to 1e-4 .. 1e-3 s): over 600 rows its error stays
+    # far below a millisecond, where the times as written are up to 50 ms off
+    assert rec.t.size == T30.size and np.max(np.abs(rec.t - T30)) < 1e-3
+    np.testing.assert_allclose(rec.theta, THETA30, rtol=0, atol=ATOL)
+    assert rec.info["retimed"]["coarsest_unit_s"] == pytest.approx(0.1)
+    assert any("written to 0.1 s at their coarsest" in w for w in rec.warnings)
+
+
+def test_rounded_times_with_a_dropped_frame_are_refused_naming_the_rate(tmp_path):
+    # five frames lost at 15 s: the rows are no uniform grid, and their times cannot tell where the gap is
+    keep = np.r_[0:450, 455:T30.size]
+    src = tmp_path / "2 Data.csv"
+    src.write_text(_excel_tracker(T30[keep], X30[keep], Y30[keep]))
+    _one_line_error(invoke("kinematics", str(src), "--pivot", repr(PX), repr(PY), "--out", str(tmp_path / "o"), "-q"),
+                    str(src), "a repeated time", "written to 0.1 s there", "--rate HZ")
 
 
 # --- a Python tracker's CSV: the bob's (x, y) written as a tuple or an array in one cell ---------
