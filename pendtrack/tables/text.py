@@ -296,7 +296,15 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                                   f"--columns (e.g. theta{',_' * (width - 1)})")
             if width > 2:
                 arc = _arc(body, sep, comma, 1, 2)
-                if width <= MAX_SPELLED and arc:
+                clock = _time_column(body, sep, comma, width)
+                if width <= MAX_SPELLED and clock not in (None, 0):
+                    names = ["_"] * width
+                    names[clock] = "t"
+                    names[0] = "theta"
+                    hint = (f"column {clock + 1} increases like a time, column 1 does not: add --columns "
+                            f"{','.join(names)} if column 1 is theta [rad] (theta[deg] if in degrees), or name "
+                            f"the columns that hold theta or x, y")
+                elif width <= MAX_SPELLED and arc:
                     hint = (f"columns 2 and 3 trace a pendulum's arc: add --columns t,{arc}{',_' * (width - 3)} if "
                             f"they are t [s] and the bob's positions ({arc}: {ARC_WORDS[arc]}), or --columns "
                             f"t,theta{',_' * (width - 2)} if they are t [s], theta [rad] and {width - 2} to ignore")
@@ -384,6 +392,21 @@ ARC_LINE_R2 = 0.5  # ... and a straight line at most this share (the curvature i
 ARC_SHARE = 0.25  # ... over the record's first quarter, where the swing is widest (later, a damped swing's sag sinks
 # into the positions' rounding: a Tracker export in whole mm: 0.89 over its first quarter, 0.76 over all of it)
 ARC_WORDS = {"x,y": "y upwards", "x,y_down": "y counting downwards, as image rows do"}
+
+
+TIME_ROWS = 0.99  # a column is time-like when it increases from row to row in this share of the rows
+
+
+def _time_column(body: list[tuple[int, str]], sep: str | None, comma: bool, width: int) -> int | None:
+    """The first column whose numbers increase from row to row (a clock), None if none does; only looked
+    for to name the time column in a headerless table's hint."""
+    cells = [_cells(line, sep, comma) for _, line in body]
+    for j in range(width):
+        col = np.array([_number(c[j]) if j < len(c) else math.nan for c in cells])
+        col = col[np.isfinite(col)]
+        if col.size >= 10 and np.count_nonzero(np.diff(col) > 0) >= TIME_ROWS * (col.size - 1):
+            return j
+    return None
 
 
 def _pair_direction(cols: list[ColumnName | None], body: list[tuple[int, str]], sep: str | None,

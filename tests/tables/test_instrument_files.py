@@ -456,6 +456,17 @@ def test_not_a_tracker_project(tmp_path):
         read_record(src)
 
 
+def test_a_headerless_table_with_its_clock_in_column_2_is_named_in_the_hint(tmp_path):
+    # a micro:bit logger writing "angle,running_time,accel" per line (no header): the hint puts t where the
+    # clock is, not in column 1
+    src = tmp_path / "pendulum.txt"
+    src.write_text(_rows(np.degrees(THETA), T + 2.446, np.sin(THETA)))
+    _one_line_error(invoke("kinematics", str(src), "--out", str(tmp_path / "o"), "-q"), str(src),
+                    "column 2 increases like a time", "--columns theta,t,_")
+    rec = read_record(src, spec=TableSpec(columns=("theta[deg]", "t", "_")))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
 # --- times written more coarsely than the rows are spaced (a spreadsheet's 0.00E+00 format) -------
 
 FPS30 = 30.0
