@@ -27,6 +27,9 @@ ARC_MAX_RADIUS = 2.5  # a pendulum's arc has a radius below this many frame diag
 # long string filmed close, issue 27's bauble: 2.1 diagonals)
 ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
 ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
+# A mover whose path is unclear must travel at least this many of its radii to be taken for the marker: the
+# centre of a fixed dot that a swinging rod joins wobbles by half its radius (a drawn pendulum's pivot)
+UNCLEAR_TRAVEL = 1.0
 # Two movers on arcs, within this radius ratio of each other and further apart than this many radii, are two
 # pendulums (a bead or a sticker riding on one bob is smaller, or on it): which one is the user's to say.
 TWIN_RADIUS_RATIO = 1.5
@@ -46,7 +49,8 @@ class _Acquirer:
     coloured object carried or walking past while a hand hides the marker) is passed over;
     one whose path is too short or too straight to tell comes after those on an arc. A
     candidate seen smaller than ``MIN_RADIUS_SHARE`` of its median size over the window is
-    partly hidden (a hand). When no candidate moves, the search moves on (a poster is all
+    partly hidden (a hand). A mover whose path is unclear counts only once it travels
+    :data:`UNCLEAR_TRAVEL` radii. When no candidate moves, the search moves on (a poster is all
     there is to see while a hand hides the marker); when the video ends first, the largest
     candidate of the last search is taken (a marker that never moves: pass a ROI to track it
     from the start). Once the marker is chosen in a search frame, the frames since the
@@ -162,8 +166,12 @@ class _Acquirer:
             return det, tpl, info, chain(back[k:], window, self.pending, self.frames)
 
     def _same(self, det: Detection, fr: object) -> tuple[Detection, tuple[_Template, float, float]] | None:
-        """The candidate of ``fr`` that is ``det`` seen in a neighbouring frame, whole and usable, or None."""
-        reach = LINK_REACH * float(np.hypot(self.sampler.height, self.sampler.width))
+        """The candidate of ``fr`` that is ``det`` seen in a neighbouring frame, whole and usable, or None.
+
+        Within the tracker's own reach from one frame to the next (its wide search margin plus the marker's
+        radius): a look-alike further off in the frame before is another object, not the marker.
+        """
+        reach = self.params.search_margin_px + det.radius
         near = [c for c in self.candidates(fr)
                 if MIN_RADIUS_SHARE <= c.radius / det.radius <= 1 / MIN_RADIUS_SHARE
                 and np.hypot(c.x - det.x, c.y - det.y) <= reach]
@@ -201,8 +209,9 @@ class _Acquirer:
             moved, radii, path = _follow(det, samples, reach)
             if det.radius < MIN_RADIUS_SHARE * float(np.median([det.radius, *radii])):
                 continue  # partly hidden here
-            if moved > max(MOVED_PX, 0.5 * det.radius):
-                moving[path_shape(path, marker_radius=det.radius, diagonal=diagonal)].append(cand)
+            shape = path_shape(path, marker_radius=det.radius, diagonal=diagonal)
+            if moved > max(MOVED_PX, 0.5 * det.radius) and (shape != "unclear" or moved >= UNCLEAR_TRAVEL * det.radius):
+                moving[shape].append(cand)
             else:
                 still.append(cand)
         self.rejected_paths += len(moving["not_arc"])

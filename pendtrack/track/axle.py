@@ -111,6 +111,23 @@ def lens_mismatch_text(check: LensCheck) -> str:
             f"lens_check = \"warn\" in --config to go on")
 
 
+def unchecked_lens_text(check: LensCheck) -> str:
+    """One line when the default lens could not be checked and another lens would move theta by more than
+    the track's own scatter about its circle (what the lens decides exceeds what tracking does); else ""."""
+    configured = next((h for h in check.hypotheses if h.name == "configured"), None)
+    if configured is None:
+        return ""
+    other = max((h for h in check.hypotheses if h.name != "configured"), key=lambda h: h.theta_change_mrad,
+                default=None)
+    scatter_mrad = 1e3 * configured.rms_rel  # the track's radial scatter as an angle about the axle
+    if other is None or not other.theta_change_mrad > scatter_mrad:
+        return ""
+    return (f"the lens could not be checked ({check.reason}), and theta depends on it: under {other.label} it would "
+            f"differ by {other.theta_change_mrad:.2g} mrad rms, more than the track's {scatter_mrad:.2g}-mrad scatter. "
+            f"theta assumes the default lens ({check.configured}); if the camera is another, track again with its "
+            "--projection/--fov (--projection none for a lens without distortion)")
+
+
 @dataclass(frozen=True)
 class AngleTable:
     """What the angle stage writes.
@@ -177,6 +194,10 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
             if ac.lens_check == "error" and not lens_was_named(track_config):
                 raise ConfigError(lens_mismatch_text(check), path=source)
             log.warning("%s: %s", source, lens_mismatch_text(check))
+        elif check is not None and check.verdict == "undecided" and not lens_was_named(track_config):
+            text = unchecked_lens_text(check)
+            if text:
+                log.warning("%s: %s", source, text)
     circle = None
     uncertainty: dict[str, object] = {}
     if ac.axle:

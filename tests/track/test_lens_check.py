@@ -204,3 +204,25 @@ def test_lens_check_off_and_bad_values(tracked, tmp_path):
         with pytest.raises(ConfigError, match=key):
             angle_stage(d / "track.parquet", out_dir=tmp_path, config=Config().replace("angle", **{key: value}),
                         progress=False, force=True)
+
+
+def test_an_unchecked_default_lens_that_moves_theta_is_named():
+    # a drawn animation (ranjit002/convolutionalSHM@2a2b5a9: no lens at all) whose axle sits 12 px from the
+    # frame's centre: every radial correction keeps its arc a circle, so the check cannot tell the lenses apart,
+    # yet theta under no correction differs from theta under the default fisheye by more than the track's scatter
+    from pendtrack.track.axle import unchecked_lens_text
+
+    rng = np.random.default_rng(3)
+    phi = np.linspace(-np.pi / 2, np.pi / 2, 400)
+    x = 652.0 + 330.0 * np.sin(phi) + rng.normal(0, 0.3, phi.size)
+    y = 480.0 + 330.0 * np.cos(phi) + rng.normal(0, 0.3, phi.size)
+    check = check_lens(x, y, width=1280, height=960, projection="equisolid", fov_deg=120.0, fixed_pixels=0.48,
+                       ratio=2.0)
+    assert check.verdict == "undecided"
+    text = unchecked_lens_text(check)
+    assert "theta depends on it" in text and "--projection none" in text
+    # the same arc, a tenth as wide: what the lens decides is within the scatter, no word
+    small = check_lens(652.0 + 33.0 * np.sin(phi) + rng.normal(0, 0.3, phi.size),
+                       480.0 + 33.0 * np.cos(phi) + rng.normal(0, 0.3, phi.size), width=1280, height=960,
+                       projection="equisolid", fov_deg=120.0, fixed_pixels=0.48, ratio=2.0)
+    assert small.verdict == "undecided" and unchecked_lens_text(small) == ""
