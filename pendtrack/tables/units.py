@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pendtrack.errors import ConfigError
 
 TIME_NAMES = frozenset({"t", "time", "timestamp", "times"})
-THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ"})
+THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ", "angular position", "angular displacement"})
 X_NAMES = frozenset({"x", "pos x", "position x", "x position"})
 Y_NAMES = frozenset({"y", "pos y", "position y", "y position"})
 Y_DOWN_NAMES = frozenset({"y_down", "ydown", "y down"})
@@ -44,6 +44,8 @@ RATE_UNITS: Mapping[str, str] = {
 IGNORED = frozenset({"_", "-"})
 _UNIT_RE = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 _DATASET_RE = re.compile(r"^(?P<set>[^:\[(]+):\s*(?P<name>.+)$")  # Logger Pro's "Run 1: Time (s)"
+_RUN_SUFFIX_RE = re.compile(r"^(?P<name>.+?)\s+(?P<set>run\s*#\s*\d+)$")  # PASCO Capstone's "Time (s) Run #1"
+_CHANNEL_RE = re.compile(r",\s*ch\s*[\w&]+$")  # PASCO's sensor channel: "Angular Position, Ch 1&2 (rad)"
 _INDEX_RE = re.compile(r"^(?P<name>.*?\D)[\s_]*(?P<index>\d+)$")
 
 
@@ -127,7 +129,8 @@ def _role(name: str) -> tuple[str, bool] | None:
 
 def parse_column_name(label: str, *, aliases: bool = True) -> ColumnName | None:
     """The meaning of a column name (``theta [deg]``, ``time_ms``, ``θ``, ``y_down``, ``Run 1: Angle (°)``,
-    ``theta1_rad``, ``_``); None if it names nothing this reader uses.
+    ``theta1_rad``, PASCO Capstone's ``Angular Position, Ch 1&2 (rad) Run #1``, ``_``); None if it names
+    nothing this reader uses.
 
     ``aliases=False`` (Parquet files, whose names a program wrote) knows only the names
     ``t``, ``theta``, ``x``, ``y``, ``y_down``, units still allowed.
@@ -139,12 +142,13 @@ def parse_column_name(label: str, *, aliases: bool = True) -> ColumnName | None:
     """
     text = label.strip().strip('"').strip().lower()
     dataset = ""
-    m = _DATASET_RE.match(text)
+    m = _DATASET_RE.match(text) or _RUN_SUFFIX_RE.match(text)
     if m:
-        dataset, text = m.group("set").strip(), m.group("name").strip()
+        dataset, text = " ".join(m.group("set").replace("#", " ").split()), m.group("name").strip()
     if text in IGNORED or not text:
         return ColumnName("_", label=label)
     name, unit = split_unit(text)
+    name = _CHANNEL_RE.sub("", name).strip()
     index = None
     found = _role(name)
     if found is None:

@@ -281,6 +281,36 @@ def test_logger_pro_text_export(tmp_path):
     assert rec.info["columns"] == ["t[s]", "theta[deg]"]
 
 
+# --- PASCO Capstone ------------------------------------------------------------------------------
+
+def test_pasco_capstone_csv(tmp_path):
+    # Capstone writes the run after the unit ("Time (s) Run #1"); its Rotary Motion Sensor's angle is
+    # "Angle (rad)" or, in DataStudio's naming, "Angular Position, Ch 1&2 (rad)"
+    src = tmp_path / "capstone.csv"
+    head = '"Time (s) Run #1","Angle (rad) Run #1","Angular Velocity (rad/s) Run #1"\n'
+    src.write_text(head + _rows(T, THETA, T))
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+    # a European export: tabs, decimal commas, the sensor's channel in the name
+    src.write_text("Time (s) Run #1\tAngular Position, Ch 1&2 (rad) Run #1\n"
+                   + _rows(T, THETA, sep="\t", fmt=lambda v: repr(v).replace(".", ",")))
+    np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
+
+
+@pytest.mark.integration
+def test_pasco_capstone_runs_side_by_side(tmp_path):
+    n2 = 200  # run 2 is shorter: its cells are empty below
+    src = tmp_path / "runs.csv"
+    head = "Time (s) Run #1,Angle (rad) Run #1,Time (s) Run #2,Angle (rad) Run #2\n"
+    body = "".join(f"{a!r},{b!r}," + (f"{a!r},{-b!r}" if k < n2 else ",") + "\n"
+                   for k, (a, b) in enumerate(zip(T.tolist(), THETA.tolist())))
+    src.write_text(head + body)
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"), str(src),
+                    "two columns are t", "--columns t[s],theta[rad],_,_")
+    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", "theta")))
+    assert run2.t.size == n2
+    np.testing.assert_allclose(run2.theta, -THETA[:n2], rtol=0, atol=ATOL)
+
+
 # --- phyphox -----------------------------------------------------------------------------------
 
 def _phyphox(value: float, comma: bool) -> str:
