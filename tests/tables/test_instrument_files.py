@@ -255,19 +255,24 @@ def test_logger_pro_latest_run(tmp_path):
 
 
 @pytest.mark.integration
-def test_logger_pro_runs_side_by_side(tmp_path):
+@pytest.mark.parametrize("names, unit, scale", [
+    (("Run 1: Time (s)", "Run 1: Angle (°)", "Run 2: Time (s)", "Run 2: Angle (°)"), "deg", math.degrees(1.0)),
+    (("Time (s) Run #1", "Angle (rad) Run #1", "Time (s) Run #2", "Angle (rad) Run #2"), "rad", 1.0),
+], ids=["logger_pro", "pasco_capstone"])
+def test_runs_side_by_side(tmp_path, names, unit, scale):
+    # Logger Pro names a run before the column, PASCO Capstone after its unit
     n2 = 200  # run 2 is shorter: its cells are empty below
     src = tmp_path / "runs.csv"
-    head = '"Run 1: Time (s)","Run 1: Angle (°)","Run 2: Time (s)","Run 2: Angle (°)"\n'
-    body = "".join(f"{a!r},{math.degrees(b)!r}," + (f"{a!r},{math.degrees(-b)!r}" if k < n2 else ",") + "\n"
+    head = ",".join(f'"{n}"' for n in names) + "\n"
+    body = "".join(f"{a!r},{scale * b!r}," + (f"{a!r},{-scale * b!r}" if k < n2 else ",") + "\n"
                    for k, (a, b) in enumerate(zip(T.tolist(), THETA.tolist())))
     src.write_text(head + body)
     out = tmp_path / "o"
     _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(out), "-q"), str(src),
-                    "two columns are t", "--columns t[s],theta[deg],_,_")
-    run1 = read_record(src, spec=TableSpec(columns=("t[s]", "theta[deg]", "_", "_")))
+                    "two columns are t", f"--columns t[s],theta[{unit}],_,_")
+    run1 = read_record(src, spec=TableSpec(columns=("t[s]", f"theta[{unit}]", "_", "_")))
     np.testing.assert_allclose(run1.theta, THETA, rtol=0, atol=ATOL)
-    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", "theta[deg]")))
+    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", f"theta[{unit}]")))
     assert run2.t.size == n2
     np.testing.assert_allclose(run2.theta, -THETA[:n2], rtol=0, atol=ATOL)
 
@@ -294,21 +299,6 @@ def test_pasco_capstone_csv(tmp_path):
     src.write_text("Time (s) Run #1\tAngular Position, Ch 1&2 (rad) Run #1\n"
                    + _rows(T, THETA, sep="\t", fmt=lambda v: repr(v).replace(".", ",")))
     np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
-
-
-@pytest.mark.integration
-def test_pasco_capstone_runs_side_by_side(tmp_path):
-    n2 = 200  # run 2 is shorter: its cells are empty below
-    src = tmp_path / "runs.csv"
-    head = "Time (s) Run #1,Angle (rad) Run #1,Time (s) Run #2,Angle (rad) Run #2\n"
-    body = "".join(f"{a!r},{b!r}," + (f"{a!r},{-b!r}" if k < n2 else ",") + "\n"
-                   for k, (a, b) in enumerate(zip(T.tolist(), THETA.tolist())))
-    src.write_text(head + body)
-    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"), str(src),
-                    "two columns are t", "--columns t[s],theta[rad],_,_")
-    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", "theta")))
-    assert run2.t.size == n2
-    np.testing.assert_allclose(run2.theta, -THETA[:n2], rtol=0, atol=ATOL)
 
 
 # --- phyphox -----------------------------------------------------------------------------------
