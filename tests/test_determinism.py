@@ -61,16 +61,23 @@ def strip(record: dict) -> dict:
     return {k: v for k, v in record.items() if k not in RUNTIME_KEYS}
 
 
-def test_a_cold_cache_and_a_warm_one_give_the_same_fit(kinematics, tmp_path):
-    cache = tmp_path / "numba-cache"
-    cold = run_fit(kinematics, tmp_path / "cold", cache)
-    warm = run_fit(kinematics, tmp_path / "warm", cache)
+@pytest.fixture(scope="module")
+def host_fits(kinematics: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, dict]:
+    """The host's fits with an empty numba cache, then with that cache filled (compiled once for both tests)."""
+    d = tmp_path_factory.mktemp("host")
+    cold = run_fit(kinematics, d / "cold", d / "numba-cache")
+    warm = run_fit(kinematics, d / "warm", d / "numba-cache")
+    return cold, warm
+
+
+def test_a_cold_cache_and_a_warm_one_give_the_same_fit(host_fits):
+    cold, warm = host_fits
     for m in MODELS:
         assert strip(cold[m]) == strip(warm[m]), m
 
 
-def test_generic_code_generation_finds_the_same_minimum(kinematics, tmp_path):
-    host = run_fit(kinematics, tmp_path / "host", tmp_path / "cache-host")
+def test_generic_code_generation_finds_the_same_minimum(kinematics, host_fits, tmp_path):
+    host = host_fits[1]
     generic = run_fit(kinematics, tmp_path / "generic", tmp_path / "cache-generic", NUMBA_CPU_NAME="generic")
     for m in MODELS:
         a, b = host[m], generic[m]
