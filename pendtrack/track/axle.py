@@ -19,7 +19,7 @@ import pandas as pd
 from pendtrack.config import AngleConfig, LensConfig
 from pendtrack.errors import ArtifactError, ConfigError, TrackingError
 from pendtrack.track.angle import theta_from_track
-from pendtrack.track.circle import circle_uncertainty, fit_circle
+from pendtrack.track.circle import circle_uncertainty, fit_circle, off_circle
 from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
 
 log = logging.getLogger(__name__)
@@ -128,6 +128,67 @@ def unchecked_lens_text(check: LensCheck) -> str:
             "--projection/--fov (--projection none for a lens without distortion)")
 
 
+#: A point further than this share of the radius from the marker's circle about the axle is no position of the
+#: marker, whatever the lens (one that bends the circle this much fails the lens check): the pivot, a look-alike
+#: the tracker followed for a while
+FAR_FROM_CIRCLE = 0.25
+
+
+def _without_off_circle(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, ...],
+                        source: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    """``ok`` without the points that are not on the marker's circle about the axle, and the provenance facts
+    (empty with too few points to judge).
+
+    A rigid pendulum's marker keeps its distance from the axle. Left out: the points further than
+    :data:`FAR_FROM_CIRCLE` of the radius from the circle (fitted again without them), then those that jump off
+    it for a few frames and back (:func:`pendtrack.track.circle.off_circle`).
+    """
+    idx = np.flatnonzero(ok)
+    if idx.size < 10:
+        return ok, {}
+    x, y = df["x"].to_numpy(float)[idx], df["y"].to_numpy(float)[idx]
+
+    def circle_of(keep: np.ndarray) -> tuple[tuple[float, float], float]:
+        if len(axle) == 2:
+            c = (float(axle[0]), float(axle[1]))
+            return c, float(np.median(np.hypot(x[keep] - c[0], y[keep] - c[1])))
+        fit = fit_circle(x[keep], y[keep])
+        return (fit.xc, fit.yc), fit.radius
+
+    keep = np.ones(idx.size, bool)
+    centre, radius = circle_of(keep)
+    far = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius) > FAR_FROM_CIRCLE * radius
+    if far.any() and (~far).sum() >= 10:
+        centre, radius = circle_of(~far)
+        far = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius) > FAR_FROM_CIRCLE * radius
+    if (~far).sum() < 10:
+        return ok, {}  # no circle to judge by: the axle's own checks refuse such a track
+    near = np.flatnonzero(~far)
+    jumps, threshold = off_circle(x[near], y[near], centre)
+    off = far.copy()
+    off[near[jumps]] = True
+    frames = df["frame"].to_numpy()[idx] if "frame" in df else idx
+    facts: dict[str, Any] = {"n": int(off.sum()), "far": int(far.sum()), "jumps": int(jumps.sum()),
+                             "jump_threshold_px": threshold, "frames": [int(f) for f in frames[off][:20]]}
+    if off.any():
+        ok = ok.copy()
+        ok[idx[off]] = False
+        r = np.hypot(x[off] - centre[0], y[off] - centre[1])
+        log.warning("%s: %d of %d tracked points are not on the marker's circle about the axle (radius %.0f px; they "
+                    "lie %s px from the axle, %d of them further than %.0f px off the circle, %d jumping off it for a "
+                    "few frames and back by more than %.2g px): something else was taken for the marker there "
+                    "(first at frame %d), and those points are left out", source, int(off.sum()), idx.size, radius,
+                    _span(r), int(far.sum()), FAR_FROM_CIRCLE * radius, int(jumps.sum()), threshold,
+                    int(frames[off][0]))
+    return ok, facts
+
+
+def _span(v: np.ndarray) -> str:
+    """``"a"`` or ``"a-b"``: the range of ``v`` to whole units."""
+    lo, hi = f"{float(v.min()):.0f}", f"{float(v.max()):.0f}"
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
 @dataclass(frozen=True)
 class AngleTable:
     """What the angle stage writes.
@@ -186,6 +247,7 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
     """
     ok = df["ok"].to_numpy(bool) & np.isfinite(df["x"].to_numpy()) & np.isfinite(df["y"].to_numpy())
     ac = options
+    ok, off = _without_off_circle(df, ok, ac.axle, source)
     check = None
     if ac.lens_check != "off":
         check = lens_check_of_track(df, ok, track_extra, track_config, ratio=ac.lens_ratio)
@@ -242,6 +304,8 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
              "lens": dict(lens_used) if isinstance(lens_used, dict) else {},
              "lens_check": check.to_dict() if check is not None else {"verdict": "not checked", "reason": (
                  "lens_check = off" if ac.lens_check == "off" else "the track records no lens or frame size")}}
+    if off:
+        extra["off_circle"] = off
     if circle is not None:
         extra["circle_rms_px"] = circle.rms
         extra["axle_uncertainty"] = uncertainty

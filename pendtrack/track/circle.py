@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, optimize
+from scipy import linalg, ndimage, optimize
 
 
 @dataclass(frozen=True)
@@ -143,6 +143,51 @@ def fit_circle(x: np.ndarray, y: np.ndarray, *, loss: str = "soft_l1", f_scale: 
     res = np.hypot(x - xc, y - yc) - r
     return CircleFit(xc=xc, yc=yc, radius=r, rms=float(np.sqrt(np.mean(res * res))),
                      mad=float(np.median(np.abs(res))), n=int(x.size), arc_span=arc_span(x, y, xc, yc))
+
+
+#: A point is off its circle when its radius differs from the running median of its neighbours' by more than this
+#: many robust standard deviations of that difference (8: a tracking error from Gaussian noise never gets there) ...
+OFF_CIRCLE_SIGMAS = 8.0
+#: ... and by more than this [px] (below it a look-alike cannot be told from the marker's own noise)
+OFF_CIRCLE_FLOOR_PX = 1.0
+#: The running median spans this many points: a look-alike taken for up to 5 consecutive frames leaves it on the
+#: marker's radius, while a lens's smooth change of the radius over a swing is followed (a median of a monotone
+#: stretch is its middle point)
+OFF_CIRCLE_WINDOW = 11
+
+
+def off_circle(x: np.ndarray, y: np.ndarray, centre: tuple[float, float], *, sigmas: float = OFF_CIRCLE_SIGMAS,
+               floor: float = OFF_CIRCLE_FLOOR_PX, window: int = OFF_CIRCLE_WINDOW) -> tuple[np.ndarray, float]:
+    """The points of a path that leave the circle about ``centre`` for a few frames: a Hampel filter on the radius.
+
+    A rigid pendulum's marker keeps its distance from the axle; a point that jumps off that distance and back is
+    something else the tracker took for the marker (the pivot, a look-alike), however well its template scored.
+    The radius is compared with the running median of :data:`OFF_CIRCLE_WINDOW` points, so the smooth change of
+    the radius over a swing that a residual lens distortion or a wobbling bob leaves is not mistaken for one.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        The points in time order [px], all finite.
+    centre : (float, float)
+        The axle [px].
+    sigmas, floor, window
+        The threshold: more than ``sigmas`` robust standard deviations (1.4826 times the median absolute
+        difference from the running median) and more than ``floor`` [px]; the running median's length [points].
+
+    Returns
+    -------
+    off : ndarray, bool
+        True where the point is off its circle.
+    threshold : float
+        The difference from the running median beyond which a point is off [px].
+    """
+    r = np.hypot(np.asarray(x, float) - centre[0], np.asarray(y, float) - centre[1])
+    if r.size < window:
+        return np.zeros(r.size, bool), np.inf
+    dev = np.abs(r - ndimage.median_filter(r, size=window, mode="nearest"))
+    threshold = max(sigmas * 1.4826 * float(np.median(dev)), floor)
+    return dev > threshold, threshold
 
 
 #: At most this many blocks in the jackknife of :func:`circle_uncertainty` (9 degrees of freedom for its variance).
