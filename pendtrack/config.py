@@ -56,7 +56,7 @@ class VideoConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class TrackConfig:
-    marker_color: str = "pink"  # pink | dark | blue | #RRGGBB
+    marker_color: str = "pink"  # pink | red | orange | yellow | green | blue | dark | #RRGGBB
     roi: tuple[int, ...] = ()  # x, y, w, h of the marker in the first frame [px]; () finds it by colour
     search_margin_px: int = 48  # half-size margin of the search window around the prediction [px]
     min_score: float = 0.6  # acceptance threshold on the normalised match score (Tracker's automark)

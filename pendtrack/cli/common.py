@@ -120,8 +120,9 @@ def marker_options(fn: F) -> F:
         click.option("--roi", callback=numbers(4, int), default=None, metavar="X,Y,W,H",
                      help="The marker's rectangle [px] in the first frame where it stands out in it; "
                           "its colour is learned from it."),
-        click.option("--marker-color", default=None, metavar="pink|dark|blue|#RRGGBB",
-                     help="Find the marker by this colour (default pink)."),
+        click.option("--marker-color", default=None, metavar="NAME|#RRGGBB",
+                     help="Find the marker by this colour: pink (the default), red, orange, yellow, green, blue, "
+                          "dark, or #RRGGBB."),
         click.option("--min-score", type=float, default=None, help="Acceptance threshold of the match score (0.6)."),
     ])
 

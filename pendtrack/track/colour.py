@@ -5,7 +5,7 @@ The feature of a pixel is a linear form of its 8-bit Y, Cb, Cr values::
     f = wy * (Y - 128) + wu * (Cb - 128) + wv * (Cr - 128)
 
 with unit weight vector ``(wy, wu, wv)`` pointing from a neutral background towards the
-marker colour: the chroma direction of a coloured marker (pink, blue, ``#RRGGBB`` with
+marker colour: the chroma direction of a coloured marker (pink, red, green, ..., ``#RRGGBB`` with
 chroma), ``-Y`` for a dark marker, ``+Y`` for a pale one. Pink was chosen by the paper
 "because it produced the best contrast"; its feature is essentially Cr. Template matching
 runs on this single-channel image, so a frame is never converted to BGR.
@@ -18,7 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-NAMED = {"pink": (255, 105, 180), "blue": (30, 60, 220)}
+#: Named marker colours (RGB, 8-bit): only their chroma direction counts, so "red" finds a red ball in any light
+NAMED = {"pink": (255, 105, 180), "red": (220, 30, 30), "orange": (255, 140, 0), "yellow": (240, 220, 40),
+         "green": (40, 170, 60), "blue": (30, 60, 220)}
+#: What ``--marker-color`` takes by name
+COLOUR_NAMES = (*NAMED, "dark")
 _HEX = re.compile(r"^#([0-9a-fA-F]{6})$")
 _MIN_CHROMA = 24.0  # below this |(Cb, Cr) - 128| a #RRGGBB colour counts as grey: match on luma
 
@@ -75,7 +79,7 @@ def from_direction(name: str, dy: float, du: float, dv: float) -> MarkerColour:
 
 
 def parse_marker_colour(spec: str) -> MarkerColour:
-    """``pink`` | ``dark`` | ``blue`` | ``#RRGGBB`` -> :class:`MarkerColour`.
+    """A name of :data:`COLOUR_NAMES` or ``#RRGGBB`` -> :class:`MarkerColour`.
 
     A ``#RRGGBB`` colour with a clear hue matches on chroma only (robust to uneven lighting);
     a grey one on luma, darker or paler than mid-grey.
@@ -93,7 +97,7 @@ def parse_marker_colour(spec: str) -> MarkerColour:
     else:
         m = _HEX.match(key)
         if not m:
-            raise ValueError(f"unknown marker colour {spec!r}; expected pink, dark, blue or #RRGGBB")
+            raise ValueError(f"unknown marker colour {spec!r}; expected {', '.join(COLOUR_NAMES)} or #RRGGBB")
         h = m.group(1)
         rgb = (int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16))
     y, cb, cr = rgb_to_ycbcr(*rgb)

@@ -66,6 +66,15 @@ def test_named_and_hex_colours():
     assert parse_marker_colour("dark") == MarkerColour("dark", -1.0, 0.0, 0.0)
     blue = parse_marker_colour("blue")
     assert blue.wu > 0.9 and blue.wv < 0
+    # the colours a physicist names: red mostly +Cr, green -Cr and -Cb, yellow mostly -Cb, orange between red and
+    # yellow; each a chroma direction of its own (none within 20 degrees of another)
+    red, green, yellow, orange = (parse_marker_colour(c) for c in ("red", "green", "yellow", "Orange"))
+    assert red.wv > 0.85 and red.wu < 0 and green.wv < 0 and green.wu < 0 and yellow.wu < -0.9
+    assert red.wu > orange.wu > yellow.wu and red.wv > orange.wv > yellow.wv
+    named = [parse_marker_colour(c) for c in ("pink", "red", "orange", "yellow", "green", "blue")]
+    for i, a in enumerate(named):
+        for b in named[i + 1:]:
+            assert a.wu * b.wu + a.wv * b.wv < np.cos(np.radians(20)), (a.name, b.name)
     assert parse_marker_colour("#FF69B4").wv > 0.9  # hot pink, as a hex colour
     assert parse_marker_colour("#202020") == MarkerColour("#202020", -1.0, 0.0, 0.0)  # grey -> luma, dark
     assert parse_marker_colour("#f0f0f0").wy == 1.0  # pale -> luma, bright

@@ -211,3 +211,55 @@ def test_the_pivot_taken_for_a_drawn_pendulums_bob_is_left_out_of_theta(tmp_path
     truth = np.arctan2(bob[:, 0] - 324.0, bob[:, 1] - 195.0)
     # within a third of a dot's radius at the bob (8 px / 3 on a 156-px arm: 17 mrad); the pivot gave 5 rad
     assert np.abs(df["theta"].to_numpy()[ok] - truth[ok]).max() < 0.017
+
+
+# --- an animated GIF of a matplotlib figure: a red bob, and a red dot on the phase portrait ----------------------
+
+def _figure_gif(path, *, n: int = 120, delay_ms: int = 30) -> np.ndarray:
+    """An animation as users post them (Phystro/pendulum_dynamics@61450aa, simple_damped_pendulum.gif, its layout
+    at a quarter size): a white figure; on the right a black rod and a red bob (radius 9 px) swinging 130 px
+    below its pivot; on the left the phase portrait, a smaller red dot (radius 5 px) at (theta, omega) on a
+    flattened ellipse. GIF frame delays are whole centiseconds (30 ms). Returns the bob's angle per frame [rad]."""
+    import cv2
+    from PIL import Image
+
+    from pendtrack.models import get_model, simulate
+
+    w, h, length = 576, 324, 130.0
+    px, py = 430.0, 60.0
+    t = np.arange(n) * delay_ms / 1000
+    run = simulate(get_model("standard"), {"Omega0": 4.0, "C1": 0.15, "C0": 0.0, "C2": 0.0}, t, theta0=0.6,
+                   omega0=0.0)
+    frames = []
+    for th, om in zip(run.theta, run.omega):
+        img = np.full((h, w, 3), 255, np.uint8)
+        bx, by = px + length * np.sin(th), py + length * np.cos(th)
+        cv2.line(img, (int(round(4 * px)), int(round(4 * py))), (int(round(4 * bx)), int(round(4 * by))),
+                 (0, 0, 0), 2, lineType=cv2.LINE_AA, shift=2)
+        cv2.circle(img, (int(round(4 * bx)), int(round(4 * by))), 36, (220, 30, 30), -1, lineType=cv2.LINE_AA, shift=2)
+        qx, qy = 120.0 + 80.0 * th, 150.0 - 15.0 * om  # the phase portrait: 0.6 rad -> 48 px, 2.4 rad/s -> 36 px
+        cv2.circle(img, (int(round(4 * qx)), int(round(4 * qy))), 20, (220, 30, 30), -1, lineType=cv2.LINE_AA, shift=2)
+        frames.append(Image.fromarray(img))  # RGB
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=delay_ms, loop=0)
+    return run.theta
+
+
+@pytest.mark.video
+@pytest.mark.integration
+def test_an_animated_gif_with_a_red_bob_and_a_red_phase_dot(tmp_path):
+    # a physicist types the colour's name; the phase portrait's dot also moves, on a closed curve, but it is
+    # smaller than the bob and its path is no pendulum's arc about a point near it: the bob is tracked
+    gif = tmp_path / "damped.gif"
+    theta = _figure_gif(gif)
+    res = invoke("track", str(gif), "--marker-color", "red", "--projection", "none", "--out", str(tmp_path), "-q")
+    assert res.exit_code == 0, res.output
+    res = invoke("angle", str(tmp_path / "track.parquet"), "--out", str(tmp_path), "-q")
+    assert res.exit_code == 0, res.output
+    df = read_artifact(tmp_path / "angle.parquet", "angle").data
+    ok = df["ok"].to_numpy(bool)
+    assert ok.mean() > 0.95
+    # the GIF's own clock: frame k at k * 30 ms (its delays), not a nominal rate
+    np.testing.assert_allclose(df["t"].to_numpy(), np.arange(len(df)) * 0.03, atol=1e-9)
+    # the zero is the vertical through the fitted axle; a 9-px bob on a 130-px arm, drawn to a quarter pixel and
+    # quantised to a GIF palette: within 10 mrad (1.3 px at the bob)
+    assert np.abs(df["theta"].to_numpy()[ok] - theta[ok]).max() < 0.010
