@@ -170,6 +170,17 @@ def _drawn_pendulum(path, *, seconds: float = 2.0, fps: float = 100.0, size: tup
     return bob
 
 
+def _tracked(video, out, colour: str, stage: str = "track"):
+    """``track`` of ``video`` with ``--marker-color colour --projection none``, then (``stage="angle"``) ``angle``:
+    the last stage's table."""
+    res = invoke("track", str(video), "--marker-color", colour, "--projection", "none", "--out", str(out), "-q")
+    assert res.exit_code == 0, res.output
+    if stage == "angle":
+        res = invoke("angle", str(out / "track.parquet"), "--out", str(out), "-q")
+        assert res.exit_code == 0, res.output
+    return read_artifact(out / f"{stage}.parquet", stage).data
+
+
 @pytest.mark.video
 @pytest.mark.integration
 def test_a_drawn_pendulums_bob_is_tracked_not_its_pivot(tmp_path):
@@ -178,9 +189,7 @@ def test_a_drawn_pendulums_bob_is_tracked_not_its_pivot(tmp_path):
     # marker's and the track ended in "does not swing"
     video = tmp_path / "drawn.mp4"
     bob = _drawn_pendulum(video)
-    res = invoke("track", str(video), "--marker-color", "dark", "--projection", "none", "--out", str(tmp_path), "-q")
-    assert res.exit_code == 0, res.output
-    df = read_artifact(tmp_path / "track.parquet", "track").data
+    df = _tracked(video, tmp_path, "dark")
     ok = df["ok"].to_numpy(bool)
     assert ok.mean() > 0.9  # acquired within a quarter of a second, as the bob leaves the level rod
     # on the bob, not the pivot 330 px away: within one dot radius (16 px; the rod crossing the template pulls
@@ -199,13 +208,9 @@ def test_the_pivot_taken_for_a_drawn_pendulums_bob_is_left_out_of_theta(tmp_path
     # lies on no circle the bob swings on: the angle stage leaves those points out and theta is the bob's
     video = tmp_path / "drawn.mp4"
     bob = _drawn_pendulum(video, seconds=3.0, fps=60.0, size=(640, 480), length=156.0, r=8, pivot=(324.0, 195.0))
-    res = invoke("track", str(video), "--marker-color", "dark", "--projection", "none", "--out", str(tmp_path), "-q")
-    assert res.exit_code == 0, res.output
     with caplog.at_level("WARNING"):
-        res = invoke("angle", str(tmp_path / "track.parquet"), "--out", str(tmp_path), "-q")
-    assert res.exit_code == 0, res.output
+        df = _tracked(video, tmp_path, "dark", "angle")
     assert any("not on the marker's circle" in r.getMessage() for r in caplog.records if r.levelname == "WARNING")
-    df = read_artifact(tmp_path / "angle.parquet", "angle").data
     ok = df["ok"].to_numpy(bool)
     assert ok.mean() > 0.75  # the bob from 0.67 s on, less the frames the rod's passage costs
     truth = np.arctan2(bob[:, 0] - 324.0, bob[:, 1] - 195.0)
@@ -251,11 +256,7 @@ def test_an_animated_gif_with_a_red_bob_and_a_red_phase_dot(tmp_path):
     # smaller than the bob and its path is no pendulum's arc about a point near it: the bob is tracked
     gif = tmp_path / "damped.gif"
     theta = _figure_gif(gif)
-    res = invoke("track", str(gif), "--marker-color", "red", "--projection", "none", "--out", str(tmp_path), "-q")
-    assert res.exit_code == 0, res.output
-    res = invoke("angle", str(tmp_path / "track.parquet"), "--out", str(tmp_path), "-q")
-    assert res.exit_code == 0, res.output
-    df = read_artifact(tmp_path / "angle.parquet", "angle").data
+    df = _tracked(gif, tmp_path, "red", "angle")
     ok = df["ok"].to_numpy(bool)
     assert ok.mean() > 0.95
     # the GIF's own clock: frame k at k * 30 ms (its delays), not a nominal rate
