@@ -66,9 +66,10 @@ def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int
     """Savitzky-Golay omega, alpha and the initial analysis of ANGLE -> OUT/kinematics.parquet.
 
     ANGLE is angle.parquet, a Parquet file, a text table of t, theta (or t, x, y with a pivot:
-    CSV, tab or space separated; Tracker, Vernier and phyphox exports) or a Tracker project
-    (.trk), read by its column names and units; uneven time stamps are resampled onto a
-    uniform grid (recorded in the provenance with the error bound).
+    CSV, tab or space separated; Tracker, Vernier and phyphox exports), a Tracker project
+    (.trk) or a Logger Pro or Graphical Analysis file (.cmbl, .gambl), read by its column names
+    and units; uneven time stamps are resampled onto a uniform grid (recorded in the provenance
+    with the error bound).
     """
     from pendtrack.stages.kinematics import kinematics_stage
 

@@ -12,7 +12,9 @@ Accepted files
   Vernier Logger Pro and Video Analysis CSV (``"Latest: Time (s)"``, ``"VideoAnalysis: X (m)"``)
   and text exports (``Vernier Format 2``), phyphox CSV (``"Time (s)","Angle (deg)"``);
 * Tracker project files ``.trk`` (:mod:`pendtrack.tables.trk`): the point-mass track in the
-  project's calibrated world units, timed by its video clip.
+  project's calibrated world units, timed by its video clip;
+* Vernier's own files, Logger Pro ``.cmbl`` and Graphical Analysis ``.gambl``
+  (:mod:`pendtrack.tables.vernier`): their data sets read as the text table of their CSV export.
 
 Columns and units
 -----------------

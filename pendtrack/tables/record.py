@@ -23,6 +23,7 @@ from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_cou
 from pendtrack.tables.text import raw_record, read_text
 from pendtrack.tables.trk import read_trk
 from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
+from pendtrack.tables.vernier import VERNIER_SUFFIXES, vernier_lines
 
 log = logging.getLogger(__name__)
 
@@ -214,6 +215,8 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
             if spec.columns is not None:
                 raise ConfigError("--columns applies to tables; a Tracker project's track is read as t, x, y")
             raw = read_trk(path, spec.track)
+        elif suffix in VERNIER_SUFFIXES:
+            raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=vernier_lines(path))
         else:
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz)
     except ConfigError as exc:

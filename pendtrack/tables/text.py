@@ -236,7 +236,8 @@ def read_lines(path: Path) -> list[tuple[int, str]]:
     return lines
 
 
-def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | None = None) -> dict[str, Any]:
+def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | None = None,
+              lines: list[tuple[int, str]] | None = None) -> dict[str, Any]:
     """The raw record of a text table (module docstring), in SI units (t [s], theta [rad]).
 
     Parameters
@@ -246,6 +247,9 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         ``--columns`` names, one per column, overriding the header.
     rate_hz : float, optional
         ``--rate``: the table has no time column; row k is at ``t = k / rate_hz`` [Hz].
+    lines : list of (int, str), optional
+        The table's numbered lines, when they come from another file format
+        (:func:`pendtrack.tables.vernier.vernier_lines`); default: the file's own (:func:`read_lines`).
 
     Returns
     -------
@@ -253,7 +257,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         ``t``, ``theta`` (or None), ``x``, ``y``, ``y_down``, ``ok``, ``cols`` (each column's
         :class:`ColumnName`), ``roles`` (role -> column index), ``kind`` ("table").
     """
-    lines = read_lines(path)
+    lines = read_lines(path) if lines is None else lines
     start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
     preamble, body = lines[:start], lines[start:]
     if not body:

@@ -286,6 +286,83 @@ def test_logger_pro_text_export(tmp_path):
     assert rec.info["columns"] == ["t[s]", "theta[deg]"]
 
 
+# --- Logger Pro's and Graphical Analysis' own files ------------------------------------------------
+
+def _vernier_xml(runs: list[tuple[str, list[tuple[str, str, list[str]]]]]) -> str:
+    """A Logger Pro document (.cmbl's XML, the layout of Logger Pro 3.10's files): its settings, then a data set
+    per run with a column per (name, unit, cells), then the data set where Logger Pro keeps its curve fits."""
+    def column(i: int, name: str, unit: str, cells: list[str]) -> str:
+        return (f"    <DataColumn>\n      <ID>{102 + i} </ID>\n      <DataObjectName>{name}</DataObjectName>\n"
+                f"      <DataObjectShortName>{name[:1].lower()}</DataObjectShortName>\n"
+                f"      <ColumnUnits>{unit}</ColumnUnits>\n      <ColumnTreatAsText>0</ColumnTreatAsText>\n"
+                f"      <ColumnCells>\n" + "\n".join(cells) + "\n</ColumnCells>\n    </DataColumn>\n")
+    sets = "".join(f"  <DataSet>\n    <ID>{101 + 10 * k} </ID>\n    <DataSetName>{name}</DataSetName>\n"
+                   "    <DataSetShowInDataBrowser>1</DataSetShowInDataBrowser>\n"
+                   + "".join(column(i, *c) for i, c in enumerate(cols)) + "  </DataSet>\n"
+                   for k, (name, cols) in enumerate(runs))
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<Document>\n  <FileCoherence>1</FileCoherence>\n'
+            "  <Version>3.10.1</Version>\n  <FileName>swing.cmbl</FileName>\n  <Radians>0</Radians>\n" + sets +
+            "  <DataSet>\n    <ID>109 </ID>\n    <DataSetName>&#38;&#38;^% CurveFitFunctions %^&#38;&#38;</DataSetName>\n"
+            "    <FunctionModel>\n      <ID>110 </ID>\n      <FunctionModelString>A*sin(B*t+C)+D</FunctionModelString>\n"
+            "    </FunctionModel>\n  </DataSet>\n</Document>\n")
+
+
+def _cells(values: np.ndarray) -> list[str]:
+    return [repr(float(v)) for v in values]
+
+
+def test_logger_pro_file(tmp_path):
+    # Logger Pro's own file (File > Save): a Rotary Motion Sensor's angle in degrees, an angular velocity column
+    # beside it, and a missed sample written as no number
+    deg = _cells(np.degrees(THETA))
+    deg[40] = "Z1 1:"
+    src = tmp_path / "swing.cmbl"
+    src.write_text(_vernier_xml([("Latest", [("Time", "s", _cells(T)), ("Angle", "°", deg),
+                                             ("Angular Velocity", "°/s", _cells(np.degrees(np.gradient(THETA, T))))])]))
+    rec = read_record(src)
+    assert rec.info["columns"] == ["t[s]", "theta[deg]", "_"]  # the angular velocity is no angle: left out
+    keep = np.arange(T.size) != 40
+    np.testing.assert_allclose(rec.theta[keep], THETA[keep], rtol=0, atol=ATOL)
+    assert not rec.ok[40]
+
+
+def test_graphical_analysis_file_with_two_runs(tmp_path):
+    # Graphical Analysis' file: a tar archive holding the same XML; two runs are one error naming the --columns
+    # that picks the first, and that --columns reads it
+    import io
+    import tarfile
+
+    n2 = 200
+    xml = _vernier_xml([("Run 1", [("Time", "s", _cells(T)), ("Angle", "rad", _cells(THETA))]),
+                        ("Run 2", [("Time", "s", _cells(T[:n2])), ("Angle", "rad", _cells(-THETA[:n2]))])])
+    src = tmp_path / "swing.gambl"
+    with tarfile.open(src, "w") as archive:
+        for name, data in (("vstudm/manifest.json", b"{}"), ("vstudm/data.udm", xml.encode())):
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            archive.addfile(info, io.BytesIO(data))
+    out = tmp_path / "o"
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(out), "-q"), str(src),
+                    "--columns t[s],theta[rad],_,_")
+    run1 = read_record(src, spec=TableSpec(columns=("t[s]", "theta[rad]", "_", "_")))
+    np.testing.assert_allclose(run1.theta, THETA, rtol=0, atol=ATOL)
+    run2 = read_record(src, spec=TableSpec(columns=("_", "_", "t", "theta")))
+    assert run2.t.size == n2
+
+
+@pytest.mark.parametrize("suffix, content, fragment", [
+    (".cmbl", "Time\tAngle\n0\t1\n", "not a Logger Pro file"),
+    (".gambl", "not a tar archive", "not a Graphical Analysis file"),
+    (".cmbl", '<?xml version="1.0"?>\n<Document><DataSet><DataSetName>Latest</DataSetName></DataSet></Document>',
+     "without a column of values"),
+])
+def test_vernier_files_that_are_not(tmp_path, suffix, content, fragment):
+    src = tmp_path / f"swing{suffix}"
+    src.write_text(content)
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"), str(src),
+                    fragment)
+
+
 # --- PASCO Capstone ------------------------------------------------------------------------------
 
 def test_pasco_capstone_csv(tmp_path):
