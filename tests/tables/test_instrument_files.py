@@ -326,6 +326,7 @@ def test_logger_pro_file(tmp_path):
     assert not rec.ok[40]
 
 
+@pytest.mark.integration
 def test_graphical_analysis_file_with_two_runs(tmp_path):
     # Graphical Analysis' file: a tar archive holding the same XML; two runs are one error naming the --columns
     # that picks the first, and that --columns reads it
@@ -350,6 +351,7 @@ def test_graphical_analysis_file_with_two_runs(tmp_path):
     assert run2.t.size == n2
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("suffix, content, fragment", [
     (".cmbl", "Time\tAngle\n0\t1\n", "not a Logger Pro file"),
     (".gambl", "not a tar archive", "not a Graphical Analysis file"),
