@@ -32,6 +32,17 @@ before that turning point are a lift when its energy exceeds the first sample's 
 periods; the test needs :data:`LIFT_MIN_PERIODS` periods, where that error raises the ratio of the two
 energies by at most 17 %, and a bob swinging freely from the first sample cannot gain 30 %.
 
+**A drive.** No free swing gains energy after its release, so a record whose swing grows is not
+one: a motor or a hand drives it (a controller's swing-up, a child's swing), or the bob does not swing
+in the camera's plane (a conical or elliptical motion seen from the side). Each half swing's amplitude
+is half the rise or fall between two turning points (no centre to estimate: an offset does not enter);
+the level at each half swing is the median of :data:`DRIVE_HALF_SWINGS` in a row (a spike or a lost
+turning point moves none of them). The record is driven when a level's energy ``1 - cos A`` exceeds
+an earlier level's by more than :data:`DRIVE_RISE` and its amplitude by more than :data:`DRIVE_BANDS`
+bands: the record is refused (:class:`~pendtrack.kinematics.differentiate.KinematicsError`), since a
+model of a free swing fitted to it means nothing. Half swings that reach the top (amplitude above
+:data:`DRIVE_TOP` rad) are left out: over the top the amplitude no longer measures the energy.
+
 The band is six times the noise of the samples at rest, and at least 1.5 of a quantised record's
 steps (:mod:`pendtrack.kinematics.rest`). ``Omega0`` comes from theta's strongest spectral
 peak (:func:`~pendtrack.kinematics.differentiate.dominant_period`): at large amplitude it is
@@ -47,7 +58,7 @@ from typing import Any
 
 import numpy as np
 
-from pendtrack.kinematics.differentiate import dominant_period
+from pendtrack.kinematics.differentiate import KinematicsError, dominant_period
 from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, MIN_REST_SAMPLES, leading_rest, smallest_step
 
 log = logging.getLogger(__name__)
@@ -60,6 +71,11 @@ CATCH_REST_PERIODS = 1.0  # the rest after a catch lasts a period at least (a sh
 CATCH_PERIODS = 3  # the loss per half period is measured over the 3 periods before the catch's half period
 LIFT_RISE = 0.3  # a lift: the energy at the first turning point above 1.3 x the first sample's (module docstring)
 LIFT_MIN_PERIODS = 6  # ... judged on records of this many periods at least (Omega0^2 within 17 %)
+DRIVE_RISE = 0.3  # a drive: a later swing's energy above 1.3 x an earlier one's (the lift's bar)
+DRIVE_BANDS = 4.0  # ... and its amplitude 4 bands (24 noise sigmas) above: a weak drive's beat is no drive
+DRIVE_HALF_SWINGS = 5  # the amplitude's level: the median of 5 half swings in a row
+DRIVE_PROMINENCE = 2.0  # a turning point stands out of the record by 2 bands (12 noise sigmas) at least
+DRIVE_TOP = math.pi - 0.05  # half swings this large reach the top: left out [rad]
 LIFT_FIT_PERIODS = 0.1  # the first sample's angle and speed: a quadratic through this share of a period
 
 
@@ -132,6 +148,27 @@ class Lift:
     n: int
     release_s: float
     theta_r: float
+    energy_rise: float
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A swing that grows after its release (module docstring).
+
+    Attributes
+    ----------
+    t_low, t_high : float
+        Times of the lower level's and the higher later level's middle half swing [s].
+    amplitude_low, amplitude_high : float
+        Their amplitudes [rad].
+    energy_rise : float
+        ``(1 - cos amplitude_high) / (1 - cos amplitude_low) - 1``.
+    """
+
+    t_low: float
+    amplitude_low: float
+    t_high: float
+    amplitude_high: float
     energy_rise: float
 
 
@@ -232,6 +269,51 @@ def find_lift(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Lift | None:
     return Lift(n=int(idx[k]), release_s=float(tt[k]), theta_r=float(th[k]), energy_rise=e_turn / e_start - 1.0)
 
 
+def find_drive(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Drive | None:
+    """The largest growth of the swing after its release, or None when it does not grow (module docstring).
+
+    Parameters
+    ----------
+    t, theta, ok : ndarray
+        As for :func:`find_hold` (the turning points are looked for in the usable samples).
+    """
+    from scipy.signal import find_peaks
+
+    usable = _usable(t, theta, ok)
+    if usable is None:
+        return None
+    _, tt, th = usable
+    noise = 1.4826 * float(np.median(np.abs(np.diff(th, 2)))) / math.sqrt(6.0)
+    band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(th))
+    if not band > 0:
+        return None
+    tops, _ = find_peaks(th, prominence=DRIVE_PROMINENCE * band)
+    bottoms, _ = find_peaks(-th, prominence=DRIVE_PROMINENCE * band)
+    turns = np.sort(np.concatenate([tops, bottoms]))
+    if turns.size < DRIVE_HALF_SWINGS + 2:
+        return None
+    half = 0.5 * np.abs(np.diff(th[turns]))
+    mid = 0.5 * (tt[turns[1:]] + tt[turns[:-1]])
+    w = DRIVE_HALF_SWINGS
+    level = np.array([np.median(half[i:i + w]) for i in range(half.size - w + 1)])
+    at = np.array([mid[i + w // 2] for i in range(half.size - w + 1)])
+    below_top = np.array([np.max(half[i:i + w]) < DRIVE_TOP for i in range(half.size - w + 1)])
+    energy = 1.0 - np.cos(level)
+    best: Drive | None = None
+    low = -1
+    for k in range(level.size):
+        if not below_top[k]:
+            continue
+        if low >= 0 and level[k] - level[low] > DRIVE_BANDS * band and energy[low] > 0:
+            rise = float(energy[k] / energy[low] - 1.0)
+            if rise > DRIVE_RISE and (best is None or rise > best.energy_rise):
+                best = Drive(t_low=float(at[low]), amplitude_low=float(level[low]), t_high=float(at[k]),
+                             amplitude_high=float(level[k]), energy_rise=rise)
+        if low < 0 or level[k] < level[low]:
+            low = k
+    return best
+
+
 def find_catch(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Catch | None:
     """The catch at the end of a record, or None.
 
@@ -301,6 +383,11 @@ def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any 
     start : Hold or Lift or None
         What precedes the free swing (a lift after a hold: the lift, which ends later).
     catch : Catch or None
+
+    Raises
+    ------
+    KinematicsError
+        The swing grows after the release (:func:`find_drive`): no free swing, nothing to fit.
     """
     t = np.asarray(t, dtype=np.float64)
     theta = np.asarray(theta, dtype=np.float64)
@@ -325,4 +412,11 @@ def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any 
                     "(its damping took %.2g rad per half period): it was caught; the %d samples from t = %.4g s "
                     "are not fitted", source, catch.theta_c, catch.rest_s, catch.amplitude, catch.loss,
                     theta.size - catch.n, catch.free_until_s)
+    drive = find_drive(t, theta, ok)
+    if drive is not None:
+        raise KinematicsError(
+            f"not a free swing: its amplitude grows from {drive.amplitude_low:.3g} rad at t = {drive.t_low:.4g} s to "
+            f"{drive.amplitude_high:.3g} rad at t = {drive.t_high:.4g} s ({100.0 * drive.energy_rise:.0f} % more "
+            "energy), which no free pendulum does: it is driven (a motor, a hand) or does not swing in the camera's "
+            "plane; pendtrack's models are of free swings", path=source)
     return ok, (lift or hold), catch

@@ -20,7 +20,9 @@ from factory import swing
 from pendtrack.artifacts import read_metadata
 from pendtrack.cli import cli
 from pendtrack.discovery.inputs import read_angle_series
-from pendtrack.kinematics.free_swing import find_catch, find_hold, find_lift
+from pendtrack.discovery.synthetic import draw_run
+from pendtrack.errors import PendtrackError
+from pendtrack.kinematics.free_swing import find_catch, find_drive, find_hold, find_lift, free_swing
 
 PARAMS = {"Omega0": 6.0, "C1": 0.02, "C0": 0.005, "C2": 0.01}  # the standard model, a lab bob's size of damping
 
@@ -249,3 +251,59 @@ def test_a_slow_tracker_repeating_its_last_positions_was_not_caught():
     theta[-4:] = theta[-5] + np.array([0.0, 0.0, 0.0003, 0.0008])
     t = np.arange(theta.size) / 5.0
     assert find_catch(t, theta, np.ones(t.size, bool)) is None
+
+
+def _driven(*, fps: float, drive_s: float = 8.0, seconds: float = 20.0, pump: float = 1.5, noise: float = 0.002,
+            seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A pendulum pumped from 0.05 rad by a torque along its motion (a controller's swing-up: ``pump
+    tanh(omega / 0.1)`` [rad/s^2]) for ``drive_s``, then swinging freely; sampled at ``fps`` with noise."""
+    from scipy.integrate import solve_ivp
+
+    w0 = PARAMS["Omega0"]
+
+    def rhs(time, y):
+        th, om = y
+        drive = pump * math.tanh(om / 0.1) if time < drive_s else 0.0
+        return [om, -w0 * w0 * math.sin(th) - PARAMS["C1"] * om + drive]
+
+    t = np.arange(int(seconds * fps)) / fps
+    sol = solve_ivp(rhs, (0.0, t[-1]), [0.05, 0.0], t_eval=t, rtol=1e-9, atol=1e-11, max_step=0.01)
+    return t, sol.y[0] + np.random.default_rng(seed).normal(0.0, noise, t.size)
+
+
+@pytest.mark.parametrize("fps", [30.0, 1000.0])
+def test_a_swing_pumped_up_by_a_drive_is_no_free_swing(fps):
+    # a controller's swing-up (a public encoder log of one: 0.04 to 0.44 rad in 0.9 s under a PD controller)
+    t, theta = _driven(fps=fps)
+    drive = find_drive(t, theta, np.ones(t.size, bool))
+    assert drive is not None and drive.t_low < drive.t_high <= 8.0 + 1.0  # the growth is in the driven 8 s
+    assert drive.amplitude_high > 3.0 * drive.amplitude_low
+    with pytest.raises(PendtrackError, match="pumped.txt: not a free swing: its amplitude grows"):
+        free_swing(t, theta, np.ones(t.size, bool), source="pumped.txt")
+
+
+def test_a_free_swing_with_a_tracking_spike_or_a_lost_turning_point_does_not_grow():
+    t, theta = swing("standard", PARAMS, seconds=30.0, theta0=1.2, fps=60.0, noise=0.002)
+    theta = theta.copy()
+    theta[600] += 0.8  # one wild sample, a spike half a swing high
+    ok = np.ones(t.size, bool)
+    ok[900:960] = False  # a second lost around a turning point
+    assert find_drive(t, theta, ok) is None
+
+
+@pytest.mark.parametrize("seed", [3, 11])
+def test_a_weak_drive_off_resonance_is_no_growing_swing(seed):
+    # discovery's outside-the-catalogue control: a 3-6 mrad drive whose forced response beats with the free swing
+    run = draw_run(seed, None, check_size=False, outside="weak_drive")
+    assert find_drive(run.t, run.theta, np.ones(run.t.size, bool)) is None
+
+
+@pytest.mark.integration
+def test_fit_of_a_driven_record_is_refused_and_writes_nothing(tmp_path):
+    t, theta = _driven(fps=100.0)
+    src = _write(tmp_path / "pumped.txt", t, theta)
+    res = CliRunner().invoke(cli, ["fit", str(src), "--model", "standard", "--out", str(tmp_path / "f"), "-q"])
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "pumped.txt: not a free swing" in lines[0]
+    assert not (tmp_path / "f").exists()
