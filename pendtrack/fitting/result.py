@@ -81,11 +81,15 @@ INERTIA_SIGMAS = 2.0
 # memory record) is within 2 standard errors of 1 only because it is not measured at all; the interval
 # then spans velocity-like (0) and acceleration-like (1) drag alike, and the fit is no added mass
 INERTIA_RESOLUTION = 0.25
+# a value above its parameter's physical range (ParamSpec.plausible_high) is flagged when it lies more than
+# this many standard errors above it: lab2_trial1_rawdata.txt's classic p = 3.1 +- 2.0 is no such claim
+PLAUSIBLE_SIGMAS = 2.0
 
 
 def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray, lower: np.ndarray,
                        upper: np.ndarray, *, t_start: float, t_end: float,
-                       floors: Mapping[str, float], nuisance: tuple[str, ...] = ()) -> dict[str, str]:
+                       floors: Mapping[str, float], nuisance: tuple[str, ...] = (),
+                       plausible: Mapping[str, tuple[float, str]] | None = None) -> dict[str, str]:
     """Why a fitted model parameter's value cannot be taken as a measurement, by name.
 
     Rules (constants above, the physics reason next to each):
@@ -99,6 +103,9 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
     * **not determined**: a non-finite standard error, or, for a value above its visibility
       floor, one above :data:`UNDETERMINED_RATIO` times the magnitude of the value (for ``t0``:
       of ``t_start - t0``);
+    * **above its physics**: more than :data:`PLAUSIBLE_SIGMAS` standard errors above the largest
+      value the physics it stands for takes (``plausible``: a drag's speed exponent above 3, no
+      drag law): the term is then fitting something else the model lacks;
     * **the memory term an added mass** (``Omega0`` flagged): ``G2 > 0`` with ``beta`` and
       ``p_f`` both measured (standard errors at most :data:`INERTIA_RESOLUTION`) and within
       :data:`INERTIA_SIGMAS` standard errors of 1, where the term is
@@ -123,8 +130,11 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
         Name -> visibility floor of the value [its unit] (missing: 0).
     nuisance : tuple of str
         Measurement parameters (judged only for a finite standard error and the bounds).
+    plausible : mapping, optional
+        Name -> (largest physical value [its unit], why): :func:`plausible_limits`.
     """
     flags: dict[str, str] = {}
+    plausible = plausible or {}
     duration = max(t_end - t_start, 0.0)
     for j, name in enumerate(names):
         if name in STATE_NAMES:
@@ -151,10 +161,29 @@ def plausibility_flags(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
         elif scale > floors.get(name, 0.0) and se > UNDETERMINED_RATIO * scale:
             flags[name] = (f"not determined by the data: standard error {se:.3g} > "
                            f"{'its distance before the record' if name == 't0' else '|value|'} {scale:.3g}")
+        elif name in plausible and v - PLAUSIBLE_SIGMAS * se > plausible[name][0]:
+            high, why = plausible[name]
+            flags[name] = (f"above any physical value: {v:.3g} +- {se:.2g}, more than {PLAUSIBLE_SIGMAS:g} standard "
+                           f"errors above {high:g} ({why}): the term stands in for something the model lacks")
     inertia = _memory_as_inertia(names, x, stderr)
     if inertia and "Omega0" not in flags:
         flags["Omega0"] = inertia
     return flags
+
+
+def plausible_limits(model: Any, names: tuple[str, ...]) -> dict[str, tuple[float, str]]:
+    """Name -> (largest physical value, why) of the fitted ``names`` whose declaration has one
+    (:attr:`pendtrack.models.declare.ParamSpec.plausible_high`): :func:`plausibility_flags`'s ``plausible``."""
+    out: dict[str, tuple[float, str]] = {}
+    spec_of = getattr(model, "param_spec", None)  # a caller's own model (a toy) may declare no ranges
+    if spec_of is None:
+        return out
+    for name in names:
+        if name in model.param_names:
+            spec = spec_of(name)
+            if math.isfinite(spec.plausible_high):
+                out[name] = (float(spec.plausible_high), spec.plausible_why)
+    return out
 
 
 def split_findings(terms: tuple[str, ...], names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray,
@@ -553,7 +582,7 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
         tuple(getattr(model, "physical_terms", ())), names, x, unc.stderr, problem.lower,
         plausibility_flags(names, x, unc.stderr_judged, problem.lower, problem.upper, t_start=problem.t_start,
                            t_end=t_end,
-                           floors=floors, nuisance=_measurement_params(model)),
+                           floors=floors, nuisance=_measurement_params(model), plausible=plausible_limits(model, names)),
         t_start=problem.t_start, t_end=t_end)
     # a parameter of an absent term (a finding) may have no standard error (the exponent of a power drag
     # at C3 = 0 changes nothing): the fit is judged on the others

@@ -69,7 +69,10 @@ class ParamSpec:
     """One physical parameter: name as in the paper, unit, physical range and meaning.
 
     ``low``/``high`` are the bounds; ``low_open``/``high_open`` say whether the bound
-    itself is excluded.
+    itself is excluded. ``plausible_high`` is the largest value the physics the parameter stands
+    for takes (an exponent of a drag law), ``plausible_why`` the reason: a fit that measures the
+    parameter above it is flagged (:func:`pendtrack.fitting.result.plausibility_flags`), its term
+    standing in for something the model lacks.
     """
 
     name: str
@@ -79,6 +82,8 @@ class ParamSpec:
     low_open: bool
     high_open: bool
     description: str
+    plausible_high: float = math.inf
+    plausible_why: str = ""
 
     def contains(self, value: float) -> bool:
         """True if ``value`` is finite (unless a bound is infinite) and inside the range."""

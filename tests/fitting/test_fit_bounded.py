@@ -18,7 +18,7 @@ from pendtrack.cli import cli
 from pendtrack.config import Config, FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import fit_model
-from pendtrack.fitting.result import plausibility_flags, split_findings
+from pendtrack.fitting.result import plausibility_flags, plausible_limits, split_findings
 from pendtrack.models import get_model
 from pendtrack.fitting.models_fit import fit_problems
 from pendtrack.stages.kinematics import kinematics_stage
@@ -119,6 +119,40 @@ def test_plausibility_flags_rules():
     x2 = x.copy()
     x2[1] = 0.0
     assert "C4" not in plausibility_flags(names, x2, se, lo, hi, t_start=0.0, t_end=60.0, floors=floors)
+
+
+def test_a_drag_exponent_above_any_drag_law_is_flagged():
+    names = ("Omega0", "C0", "C3", "p", "theta0", "omega0")
+    lo = np.array([1e-6, 0.0, 0.0, 1e-6, -np.inf, -np.inf])
+    hi = np.array([np.inf, np.inf, np.inf, np.inf, np.inf, np.inf])
+    se = np.array([1e-4, 1e-3, 1e-3, 0.66, 1e-3, 1e-2])
+    limits = plausible_limits(get_model("classic"), names)
+    assert set(limits) == {"p"} and limits["p"][0] == 3.0
+
+    def flags(p: float, p_se: float) -> dict:
+        x, s = np.array([11.0, 0.02, 0.08, p, 2.0, 0.0]), se.copy()
+        s[3] = p_se
+        return plausibility_flags(names, x, s, lo, hi, t_start=0.0, t_end=60.0, floors={}, plausible=limits)
+
+    # the Furuta pendulum's encoder log (arm taking energy at the fastest passes): p = 7.97 +- 0.66
+    assert flags(7.97, 0.66)["p"].startswith("above any physical value: 7.97 +- 0.66")
+    # lab1's classic fit (2.2 +- 0.14) and lab2's (3.1 +- 2.0) are drag laws, or not told from one
+    assert flags(2.2, 0.14) == {} and flags(3.14, 2.0) == {}
+    assert "p_f" in plausible_limits(get_model("fractional"), ("G2", "beta", "p_f"))
+
+
+def test_a_fit_that_measures_a_drag_exponent_of_eight_is_not_trustworthy():
+    # losses at the fastest passes only (a drag |omega/Omega0|^8): the classic fit measures p to +-0.1 and
+    # flags it; the same record with quadratic drag (p = 2) is trustworthy
+    def fit(p: float):
+        truth = {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": p, "Ca": 0.0}
+        t, theta = swing("classic", truth, seconds=30.0, fps=60.0, theta0=2.8, noise=2e-3, seed=3)
+        return fit_model(get_model("classic"), t, theta, np.gradient(theta, t), options=replace(FAST, n_starts=4))
+
+    eight, two = fit(8.0), fit(2.0)
+    assert eight.converged and abs(eight.params["p"].value - 8.0) < 3 * eight.params["p"].stderr + 0.05
+    assert eight.flags["p"].startswith("above any physical value") and not eight.trustworthy
+    assert "p" not in two.flags
 
 
 def test_an_effect_at_the_limit_where_it_vanishes_is_a_finding_not_a_flag():

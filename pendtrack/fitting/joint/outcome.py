@@ -33,7 +33,7 @@ import numpy as np
 from pendtrack.fitting.estimate import _floor
 from pendtrack.fitting.joint.scopes import RUN, STATE_NAMES, Scope, scope_text
 from pendtrack.fitting.result import (
-    FitResult, ParamEstimate, _measurement_params, _num, plausibility_flags, quote_method,
+    FitResult, ParamEstimate, _measurement_params, _num, plausibility_flags, plausible_limits, quote_method,
 )
 
 if TYPE_CHECKING:
@@ -284,7 +284,8 @@ def build_joint(model: Any, stacked: StackedProblem, best: StartOutcome, *, sing
         sq += rms ** 2 * p.n
         floors = {n: _floor(model, n, singles[run].omega0_hat) for n in p.names if n in model.param_names}
         run_flags = plausibility_flags(p.names, xi, sei, p.lower, p.upper, t_start=p.t_start, t_end=float(p.t[-1]),
-                                       floors=floors, nuisance=_measurement_params(model))
+                                       floors=floors, nuisance=_measurement_params(model),
+                                       plausible=plausible_limits(model, p.names))
         columns = {n: stacked.names[j] for n, j in zip(p.names, stacked.columns[i])}
         for name, why in run_flags.items():
             flags.setdefault(columns[name], why)
