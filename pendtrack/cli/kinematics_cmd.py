@@ -67,8 +67,8 @@ def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int
 
     ANGLE is angle.parquet, a Parquet file, a text table of t, theta (or t, x, y with a pivot:
     CSV, tab or space separated; Tracker, Vernier and phyphox exports), a Tracker project
-    (.trk) or a Logger Pro or Graphical Analysis file (.cmbl, .gambl), read by its column names
-    and units; uneven time stamps are resampled onto a uniform grid (recorded in the provenance
+    (.trk), a Logger Pro or Graphical Analysis file (.cmbl, .gambl) or a MATLAB file (.mat), read
+    by its column names and units; uneven time stamps are resampled onto a uniform grid (recorded in the provenance
     with the error bound).
     """
     from pendtrack.stages.kinematics import kinematics_stage

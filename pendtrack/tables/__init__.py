@@ -14,7 +14,9 @@ Accepted files
 * Tracker project files ``.trk`` (:mod:`pendtrack.tables.trk`): the point-mass track in the
   project's calibrated world units, timed by its video clip;
 * Vernier's own files, Logger Pro ``.cmbl`` and Graphical Analysis ``.gambl``
-  (:mod:`pendtrack.tables.vernier`): their data sets read as the text table of their CSV export.
+  (:mod:`pendtrack.tables.vernier`): their data sets read as the text table of their CSV export;
+* MATLAB data files ``.mat`` of versions 4 to 7 (:mod:`pendtrack.tables.matlab`): one numeric
+  matrix read as a headerless table, or equal-length vectors as columns named by their variables.
 
 Columns and units
 -----------------

@@ -23,6 +23,7 @@ from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_cou
 from pendtrack.tables.text import raw_record, read_text
 from pendtrack.tables.trk import read_trk
 from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
+from pendtrack.tables.matlab import MATLAB_SUFFIXES, matlab_lines
 from pendtrack.tables.vernier import VERNIER_SUFFIXES, vernier_lines
 
 log = logging.getLogger(__name__)
@@ -168,7 +169,7 @@ def is_video(path: str | Path) -> bool:
 
 def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: PivotFit | None = None,
                 min_samples: int = 0, purpose: str = "this stage") -> Record:
-    """Read theta(t) from an artifact, a Parquet file, a text table or a Tracker project.
+    """Read theta(t) from an artifact, a Parquet file, a text table, a Tracker project, a Vernier or MATLAB file.
 
     Parameters
     ----------
@@ -217,6 +218,8 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
             raw = read_trk(path, spec.track)
         elif suffix in VERNIER_SUFFIXES:
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=vernier_lines(path))
+        elif suffix in MATLAB_SUFFIXES:
+            raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=matlab_lines(path))
         else:
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz)
     except ConfigError as exc:

@@ -365,6 +365,63 @@ def test_vernier_files_that_are_not(tmp_path, suffix, content, fragment):
                     fragment)
 
 
+# --- MATLAB ----------------------------------------------------------------------------------------
+
+def _savemat(path: Path, variables: dict) -> Path:
+    from scipy.io import savemat
+
+    savemat(path, variables)  # MATLAB 5 format, what MATLAB's save writes by default up to -v7
+    return path
+
+
+def test_matlab_matrix_a_sample_per_row(tmp_path):
+    # a rig's log saved from MATLAB as one matrix (`save('DataPendulum.mat', 'data')`: time from the logger's
+    # start, angle in degrees, a sample per row), the form of VDB-Bram/Tutorial-Direct-Collocation's knee
+    # pendulum test; the same samples stored a sample per column read alike
+    t = T + 13.84
+    for name, data in (("rows", np.column_stack((t, np.degrees(THETA)))), ("cols", np.vstack((t, np.degrees(THETA))))):
+        src = _savemat(tmp_path / f"{name}.mat", {"data": data})
+        rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
+        np.testing.assert_allclose(rec.t, t, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
+def test_matlab_vectors_are_named_columns(tmp_path):
+    # one vector per quantity (MATLAB keeps them 1 x n): their names are the header
+    src = _savemat(tmp_path / "swing.mat", {"t": T, "theta": THETA})
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
+@pytest.mark.integration
+def test_matlab_matrix_in_degrees_is_refused_without_the_unit(tmp_path):
+    src = _savemat(tmp_path / "DataPendulum.mat", {"data": np.column_stack((T, np.degrees(THETA)))})
+    out = tmp_path / "o"
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(out), "-q"), str(src),
+                    "looks like degrees", "--columns t,theta[deg]")
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("content, fragment", [
+    ("hdf5", "MATLAB 7.3 file (HDF5)"),
+    ({"simout": {"time": T, "signals": THETA}}, "holds simout (1x1 a struct)"),
+    ({"t": T, "theta": THETA[:-5]}, "vectors of one length"),
+    ("text", "not a MATLAB data file"),
+])
+def test_matlab_files_pendtrack_cannot_read(tmp_path, content, fragment):
+    src = tmp_path / "run.mat"
+    if content == "hdf5":  # a 7.3 file: MATLAB's 128-byte text header, then HDF5
+        src.write_bytes(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sat Nov 28 10:00:00 2026 HDF5 schema "
+                        b"1.00 .".ljust(128, b" ") + b"\x89HDF\r\n\x1a\n" + bytes(64))
+    elif content == "text":
+        src.write_text("t,theta\n0,1\n")
+    else:
+        _savemat(src, content)
+    _one_line_error(invoke("fit", str(src), "--model", "standard", "--out", str(tmp_path / "o"), "-q"), str(src),
+                    fragment)
+
+
 # --- PASCO Capstone ------------------------------------------------------------------------------
 
 def test_pasco_capstone_csv(tmp_path):
