@@ -143,7 +143,8 @@ def theta_warnings(theta: np.ndarray) -> list[str]:
     centre = float(np.median(0.5 * (ext[1:] + ext[:-1])))
     off = (centre + math.pi) % TURN - math.pi
     if abs(off) > CENTRE_WARN_RAD:
-        return [f"theta oscillates about {centre:.4g} rad, not about 0 (hanging straight down): it looks like "
-                "a position (x or y, e.g. in metres), not the angle; give positions as columns t, x, y (header or "
-                "--columns), with --pivot X Y or a fitted pivot"]
+        return [f"theta oscillates about {centre:.4g} rad, not about 0 (hanging straight down): an angle from "
+                "another zero (a sensor's; fit and discover fit that zero as theta_off, [fit] offset), or it looks "
+                "like a position (x or y, e.g. in metres), not the angle; give positions as columns t, x, y (header "
+                "or --columns), with --pivot X Y or a fitted pivot"]
     return []
