@@ -20,7 +20,9 @@ Tracker export's first line, the track name ``mass A``, is passed over, as are L
 Logger Pro's text export) gives the units of the columns that have none. Header fields may be
 quoted (``"Time (s)"``). Names are read by :func:`pendtrack.tables.units.parse_column_name`.
 A Tracker export (subscripted names such as ``v_{x}``, ``θ_{r}``) is read from its ``x``,
-``y``: its ``θ`` columns are angles about Tracker's origin, not the pendulum's. A header field over
+``y``: its ``θ`` columns are angles about Tracker's origin, not the pendulum's; a ``θ`` column beside ``x``,
+``y`` that is the angle of (x, y) about their origin, in rad or degrees, is such a column too (an export of
+``t x y θ`` alone has no subscripted name to tell it by) and is passed over. A header field over
 a pair of numbers that names a position (``position``, ``centroid``, ...: :data:`PAIR_NAMES`) is the
 bob's x and y, y counting up or down as the path's arc shows (:func:`_arc`).
 """
@@ -137,6 +139,22 @@ def _with_units(fields: list[str], units: list[str]) -> list[str]:
         col = (_parse_all([f]) or [None])[0]
         out.append(f"{f} [{u}]" if col is not None and not col.unit and u.lower() in ALL_UNITS else f)
     return out
+
+
+def _short_first_row(body: list[tuple[int, str]], sep: str | None, comma: bool,
+                     preamble: list[tuple[int, str]]) -> str | None:
+    """The first row holding every column, where the first row of numbers holds fewer values than the rows
+    below and the header names as many columns as they hold: a sample whose last cells are blank (Tracker's
+    export leaves a derivative such as omega blank on its first frame, and a space-separated row then has
+    fewer values); None otherwise."""
+    if len(body) < 3 or not preamble:
+        return None
+    first = len(_cells(body[0][1], sep, comma))
+    widths = np.array([len(_cells(line, sep, comma)) for _, line in body[1:]])
+    below = int(np.median(widths))
+    if first < below and len(header_fields(preamble[-1][1])) == below:
+        return next(line for (_, line), w in zip(body[1:], widths) if w == below)
+    return None
 
 
 def _refuse_ragged_start(body: list[tuple[int, str]], sep: str | None, comma: bool, width: int) -> None:
@@ -264,8 +282,11 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         raise ConfigError("no row of numbers: expected one sample per row (t, theta, ... in columns)"
                           + (f" below the header {preamble[-1][1][:60]!r}" if preamble else ""))
     sep, comma = _layout(body[0][1]) if body else (None, False)  # type: ignore[misc]
-    width = len(_cells(body[0][1], sep, comma)) if body else 2
-    _refuse_ragged_start(body, sep, comma, width)
+    full = _short_first_row(body, sep, comma, preamble)
+    shape_line = body[0][1] if full is None else full  # the row whose values set the columns
+    width = len(_cells(shape_line, sep, comma)) if body else 2
+    if full is None:
+        _refuse_ragged_start(body, sep, comma, width)
     if width == 1 and rate_hz is None:
         raise ConfigError("one column of numbers: pendtrack reads a sample per row with its time (t, theta in "
                           "columns); for a log of angles written at a fixed rate, give it with --rate HZ "
@@ -273,9 +294,9 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     rates = _rate_columns(preamble)
     if columns is not None:
         if body and len(columns) != width:
-            sizes = group_sizes(body[0][1], sep)
+            sizes = group_sizes(shape_line, sep)
             groups = "" if width == len(sizes) else (
-                f"; a bracketed group such as {_GROUP_RE.search(body[0][1]).group(0)} is one column per number")  # type: ignore[union-attr]
+                f"; a bracketed group such as {_GROUP_RE.search(shape_line).group(0)} is one column per number")  # type: ignore[union-attr]
             raise ConfigError(f"--columns names {len(columns)} columns, the table has {width} (first data line "
                               f"{body[0][0]}{groups}): add _ for each column to ignore")
         cols = [parse_column_name(n) for n in columns]
@@ -286,7 +307,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                                   f"{rates[i][0]!r}, a rate ({rates[i][1]}), not {ROLE_WORDS[c.role]}: "
                                   f"{RATE_ADVICE}")
     else:
-        cols_or_none = _header(preamble, group_sizes(body[0][1], sep))
+        cols_or_none = _header(preamble, group_sizes(shape_line, sep))
         where = "header"
         if cols_or_none is not None:
             cols_or_none = _pair_direction(cols_or_none, body, sep, comma)
@@ -322,6 +343,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
             cols_or_none = ([ColumnName("theta", label="theta")] if rate_hz is not None else
                             [ColumnName("t", label="t"), ColumnName("theta", label="theta")])
         cols = cols_or_none
+    if where == "header":
+        cols = _without_polar_angle(cols, body, sep, comma)
     if rate_hz is not None:
         cols = _rate_times(cols, rate_hz)
     try:
@@ -362,6 +385,43 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     if rate_hz is None:
         record["t_unit"] = t_unit
     return record
+
+
+POLAR_TOL = (0.02, 1.0)  # [rad], [deg]: Tracker writes its θ to 0.1 degree, and x, y to 4 digits (~1e-3 rad)
+
+
+def _without_polar_angle(cols: list[ColumnName | None], body: list[tuple[int, str]], sep: str | None,
+                         comma: bool) -> list[ColumnName | None]:
+    """``cols`` with a theta column passed over where it is the angle of the x, y columns about their origin:
+    Tracker's θ, written without the subscripted names that mark its export (``t x y θ``)."""
+    where = {c.role: i for i, c in reversed(list(enumerate(cols))) if c is not None}
+    if not {"theta", "x", "y"} <= set(where):
+        return cols
+    theta, x, y = (np.array([_number_or_nan(_cells(line, sep, comma), where[r]) for _, line in body])
+                   for r in ("theta", "x", "y"))
+    if not _polar_angle(theta * cols[where["theta"]].scale, x, y):  # type: ignore[union-attr]
+        return cols
+    return [None if i == where["theta"] else c for i, c in enumerate(cols)]
+
+
+def _number_or_nan(cells: list[str], i: int) -> float:
+    try:
+        return float(cells[i])
+    except (IndexError, ValueError):
+        return math.nan
+
+
+def _polar_angle(theta: np.ndarray, x: np.ndarray, y: np.ndarray) -> bool:
+    """``theta`` is the angle of (x, y) about their origin (Tracker's polar θ, with y up or down), in rad or
+    in degrees: the median wrapped difference within :data:`POLAR_TOL` over at least 10 rows."""
+    for sign in (1.0, -1.0):
+        polar = np.arctan2(sign * y, x)
+        for ref, tol, turn in ((polar, POLAR_TOL[0], 2 * np.pi), (np.degrees(polar), POLAR_TOL[1], 360.0)):
+            d = (theta - ref + turn / 2) % turn - turn / 2
+            d = d[np.isfinite(d)]
+            if d.size >= 10 and float(np.median(np.abs(d))) < tol:
+                return True
+    return False
 
 
 def _rate_times(cols: list[ColumnName | None], rate_hz: float) -> list[ColumnName | None]:

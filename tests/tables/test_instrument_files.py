@@ -437,6 +437,45 @@ def test_pasco_capstone_csv(tmp_path):
     np.testing.assert_allclose(read_record(src).theta, THETA, rtol=0, atol=ATOL)
 
 
+def _tracker_rows(theta_cells: list[str], sep: str, comma: bool) -> str:
+    """Tracker's export rows t, x, y, θ, ω about an origin at the pivot: t exact (Tracker's rounded times are
+    test_tables' matter), x, y to 4 digits, θ and ω
+    (degrees, deg/s) to 0.1, ω blank on the first frame (a space-separated row is then a value short)."""
+    x, y = L * np.sin(THETA), -L * np.cos(THETA)
+    omega = [""] + [f"{v:.1f}" for v in np.degrees(np.gradient(THETA, T))[1:]]
+    rows = []
+    for a, b, c, d, e in zip(T, x, y, theta_cells, omega):
+        cells = [repr(float(a)), f"{b:.4g}", f"{c:.4g}", d] + ([e] if e or sep != " " else [])
+        rows.append(sep.join(v.replace(".", ",") if comma else v for v in cells) + "\n")
+    return "".join(rows)
+
+
+@pytest.mark.parametrize("sep, comma, track, theta_name", [("\t", False, "\tmass A\t\t\t\t", "θ"),
+                                                           (" ", True, " masa A    ", "θr")],
+                         ids=["tab", "space_decimal_comma"])
+def test_tracker_export_of_t_x_y_theta_omega(tmp_path, sep, comma, track, theta_name):
+    # florzoffi/fisica-tp2@0785750's exports of a pendulum filmed at 30 fps (File > Export > Data, five columns
+    # chosen, Spanish locale for the second): no subscripted name marks them as Tracker's, θ is the angle of
+    # (x, y) about Tracker's origin (the pivot) in degrees, and ω is blank on the first frame
+    polar = [f"{v:.1f}" for v in np.degrees(np.arctan2(-L * np.cos(THETA), L * np.sin(THETA)))]
+    src = tmp_path / "exp1_mar_L1_chico.txt"
+    src.write_text(f"{track}\n" + sep.join(["t", "x", "y", theta_name, "ω"]) + f"{sep}\n"
+                   + _tracker_rows(polar, sep, comma))
+    rec = read_record(src, spec=TableSpec(pivot=(0.0, 0.0)))
+    assert rec.info["columns"][3] == "_"  # θ passed over: x, y read
+    # x, y to 4 significant digits of 0.65 m: 1e-4 relative, 1e-4 rad (more where the bob is near a coordinate's 0)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=3e-4)
+
+
+def test_a_pendulum_angle_beside_x_y_is_read():
+    # control: a theta column that is the pendulum's angle (about the vertical), not the polar angle of x, y
+    from pendtrack.tables.text import _polar_angle
+
+    x, y = L * np.sin(THETA), -L * np.cos(THETA)
+    assert _polar_angle(np.arctan2(y, x), x, y) and _polar_angle(np.degrees(np.arctan2(y, x)), x, y)
+    assert not _polar_angle(THETA, x, y) and not _polar_angle(np.degrees(THETA), x, y)
+
+
 # --- phyphox -----------------------------------------------------------------------------------
 
 def _phyphox(value: float, comma: bool) -> str:
