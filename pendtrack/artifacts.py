@@ -230,7 +230,9 @@ class Provenance:
     inputs: Mapping[str, str] = field(default_factory=dict)  # file name -> sha256
     extra: Mapping[str, Any] = field(default_factory=dict)  # stage facts (axle, zero reference, ...)
     version: str = __version__
-    created: str = ""
+    # Stamped once, when the stage's provenance is made: every file a stage writes, and the result a library
+    # call returns beside them, carry the same time.
+    created: str = field(default_factory=lambda: _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -240,7 +242,7 @@ class Provenance:
             "config": dict(self.config),
             "inputs": dict(self.inputs),
             "extra": dict(self.extra),
-            "created": self.created or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "created": self.created,
         }
 
     @classmethod

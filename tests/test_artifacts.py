@@ -45,6 +45,9 @@ def test_round_trip_keeps_data_and_provenance(tmp_path):
     assert art.provenance.inputs == {"in.bin": "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"}
     assert art.provenance.extra == {"axle": [1.5, 2.5]}
     assert art.provenance.config == {"angle": {"rest_seconds": 2.0}}
+    # The time is the provenance's own, stamped once: a file written a second later carries the same one as the
+    # result returned beside it (a stamp taken at each write differed across a second's edge).
+    assert prov.created and art.provenance.created == prov.created == prov.to_dict()["created"]
 
 
 def test_columns_are_reordered_to_the_schema(tmp_path):
