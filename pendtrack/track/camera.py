@@ -9,7 +9,10 @@ RANSAC, which leaves out the points on the moving pendulum (OpenCV's
 ``estimateAffinePartial2D``). The track's points are then mapped into the first frame's view.
 
 A plain wall has too few corners to tell: then the motion is *not measured* and nothing is
-changed. Units: pixels of the full frame.
+changed. A first view whose corners are found again in fewer than half of the frames, in frames
+that differ from it over most of the picture, was left: the camera turned away (``lost``), and
+the track cannot be held in any one view.
+Units: pixels of the full frame.
 """
 
 from __future__ import annotations
@@ -26,6 +29,12 @@ MIN_CORNERS = 40  # fewer corners in the first frame: the motion is not measured
 MIN_INLIERS = 20
 MIN_INLIER_SHARE = 0.3  # ... and at least this share of the corners followed into it (not a scene mostly moving)
 MIN_GOOD_SHARE = 0.9  # ... in at least this share of the measured frames, else the motion is not measured
+# found again in fewer than this share of the measured frames, with most of the picture changed in those frames, the
+# first view was left: the camera turned away (a phone panned from the floor to the pendulum and on). A still camera
+# whose few corners sat on the moving bob or a hand changes only where they move.
+LOST_SHARE = 0.5
+CHANGED_GREY = 24  # a pixel of the scaled, blurred frame differs from the first frame's by more than this [grey levels]
+LOST_CHANGED = 0.5  # ... over at least this share of the picture (median over the frames where the scene was not found)
 MEASURE_RATE_HZ = 30.0  # frames measured per second of video at most (a hand shakes below ~10 Hz); linear between
 RANSAC_PX = 1.0  # RANSAC threshold [px of the scaled frame]
 # a measured motion smaller than this at the marker (95th percentile over the track) is left alone: the fit's own
@@ -49,6 +58,10 @@ class CameraMotion:
         Frame -> first frame, full-frame px (identity for the first).
     n_corners : int
         Corners found in the first frame.
+    lost : bool
+        The first frame's static scene was found again in fewer than :data:`LOST_SHARE` of the
+        measured frames, and those frames differ from it over most of the picture
+        (:data:`LOST_CHANGED`): the camera turned away from it.
     """
 
     measured: bool
@@ -56,6 +69,7 @@ class CameraMotion:
     frames: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     matrices: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
     n_corners: int = 0
+    lost: bool = False
 
     def to_reference(self, frames: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points ``(x, y)`` [px] seen in ``frames`` mapped into the first frame's view.
@@ -82,7 +96,7 @@ class CameraMotion:
 
     def to_dict(self) -> dict[str, object]:
         out: dict[str, object] = {"measured": self.measured, "reason": self.reason, "n_corners": self.n_corners,
-                                  "n_frames_measured": int(self.frames.size)}
+                                  "n_frames_measured": int(self.frames.size), "lost": self.lost}
         if self.measured and self.frames.size:
             m = self.matrices
             out["max_shift_px"] = float(np.max(np.hypot(m[:, 0, 2], m[:, 1, 2])))
@@ -108,6 +122,8 @@ class CameraMotionMeter:
         self._frames: list[int] = []
         self._mats: list[np.ndarray] = []
         self._good: list[bool] = []
+        self._changed: list[float] = []  # share of the picture changed, in each frame where the scene was not found
+        self._ref_blur: np.ndarray | None = None
 
     def _small(self, luma: np.ndarray) -> np.ndarray:
         if self._scale == 1.0:
@@ -121,6 +137,7 @@ class CameraMotionMeter:
         if self._ref is None:
             self._scale = max(1.0, max(luma.shape) / MAX_SIDE_PX)
             self._ref = self._small(luma)
+            self._ref_blur = cv2.GaussianBlur(self._ref, (5, 5), 0)  # H.264's noise is no change of scene
             pts = cv2.goodFeaturesToTrack(self._ref, maxCorners=MAX_CORNERS, qualityLevel=0.01,
                                           minDistance=max(4, int(max(self._ref.shape) / 80)), blockSize=7)
             self._pts = pts if pts is not None else np.zeros((0, 1, 2), np.float32)
@@ -146,6 +163,9 @@ class CameraMotionMeter:
             mat[:, 2] *= s  # the scaled frame's shift in full-frame px (rotation and scale need no change)
             self._frames.append(index)
             self._mats.append(mat)
+        else:
+            diff = cv2.absdiff(cv2.GaussianBlur(img, (5, 5), 0), self._ref_blur)
+            self._changed.append(float(np.mean(diff > CHANGED_GREY)))
         self._good.append(good)
 
     def result(self) -> CameraMotion:
@@ -156,6 +176,11 @@ class CameraMotionMeter:
                                        f"to tell the camera's motion)", n_corners=n)
         share = float(np.mean(self._good)) if self._good else 0.0
         if share < MIN_GOOD_SHARE:
+            changed = float(np.median(self._changed)) if self._changed else 0.0
+            if share < LOST_SHARE and changed >= LOST_CHANGED:
+                return CameraMotion(False, f"the first frame's static scene ({n} corners) was found again in only "
+                                           f"{100 * share:.0f} % of the frames measured, the others changed over "
+                                           f"{100 * changed:.0f} % of the picture", n_corners=n, lost=True)
             return CameraMotion(False, f"the static scene was followed in only {100 * share:.0f} % of the frames "
                                        f"(at least {100 * MIN_GOOD_SHARE:.0f} % are needed)", n_corners=n)
         return CameraMotion(True, f"{n} corners of the first frame followed into {len(self._frames)} frames",

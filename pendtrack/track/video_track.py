@@ -92,6 +92,19 @@ def track_dataframe(result: TrackResult, fisheye: Fisheye, *, corrected: bool) -
     })
 
 
+def _stayed(camera: CameraMotion, source: Any) -> None:
+    """Raise :class:`TrackingError` when the camera turned away from its first view (``camera.lost``).
+
+    A marker's positions seen from views that are not one another's (a phone panned across the
+    room) are no arc about one axle, and no transform maps them back; tracking stops with a
+    reason rather than handing on a track that only looks like one.
+    """
+    if camera.lost:
+        raise TrackingError(f"the camera turned away from its first view: {camera.reason}; pendtrack needs a camera "
+                            f"that stays on the pendulum (a tripod, or the phone resting), or --start at a time "
+                            f"after it has settled", path=source)
+
+
 def steady_track(result: TrackResult, camera: CameraMotion, *, corrected: bool,
                  video: Any) -> tuple[TrackResult, dict[str, object]]:
     """The track mapped into the first frame's view when the camera moved (:mod:`pendtrack.track.camera`).
@@ -216,9 +229,12 @@ def track_video(frames: Iterable[Any], *, info: VideoInfo, config: Config, sourc
     try:
         result = track_frames(metered(), sampler=sampler, params=params, roi=config.track.roi, on_progress=on_progress)
     except TrackingError as exc:
+        _stayed(meter.result(), source)  # a camera that turned away is the cause to name
         raise TrackingError(str(exc), path=source) from None
     elapsed = time.perf_counter() - t0
-    result, camera_report = steady_track(result, meter.result(), corrected=corrected, video=source)
+    camera = meter.result()
+    _stayed(camera, source)
+    result, camera_report = steady_track(result, camera, corrected=corrected, video=source)
     n = int(result.frame.size)
     n_after = result.n_after_acquisition
     if result.ok.sum() < MIN_OK_FRACTION * n_after:

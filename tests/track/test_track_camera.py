@@ -11,10 +11,11 @@ import cv2
 import numpy as np
 import pytest
 from field_videos import field_video
-from test_track_cli import invoke
+from test_track_cli import invoke, one_line_error
 
 from pendtrack.artifacts import read_artifact
 from pendtrack.track.camera import CameraMotion, CameraMotionMeter
+from pendtrack.video.writer import VideoWriter
 
 pytestmark = pytest.mark.video  # rendered hand-held videos tracked
 
@@ -97,3 +98,40 @@ def test_without_compensation_the_shaken_track_is_no_arc(shaken, tmp_path, monke
 def test_camera_motion_not_measured_reports_why():
     m = CameraMotion(False, "the first frame has 3 corners")
     assert m.to_dict()["measured"] is False and m.displacement(np.arange(2), np.ones(2), np.ones(2)).tolist() == [0, 0]
+
+
+def _blocks(seed: int, height: int = 240, width: int = 360) -> np.ndarray:
+    """A static scene rich in corners: random grey blocks of 10 px."""
+    rng = np.random.default_rng(seed)
+    scene = (rng.random((height // 10 + 1, width // 10 + 1)) * 255).astype(np.uint8)
+    return np.kron(scene, np.ones((10, 10), np.uint8))[:height, :width]
+
+
+def test_a_camera_that_turns_away_is_lost_and_a_still_one_is_not():
+    away = CameraMotionMeter(fps=30.0)
+    away.add(0, _blocks(0))
+    for k in range(1, 10):  # the phone now points at another wall
+        away.add(k, _blocks(k))
+    motion = away.result()
+    assert not motion.measured and motion.lost and "found again in only 10 %" in motion.reason
+    still = CameraMotionMeter(fps=30.0)
+    for k in range(10):
+        still.add(k, _blocks(0))
+    assert still.result().measured and not still.result().lost
+
+
+def test_a_video_panned_across_the_room_is_refused(tmp_path):
+    """arantxax/pendulumtracker@7b0fa91 20190829_150139.mp4: a phone panned from the floor up to a green ball
+    (2.4 s at 30 fps). Tracking ran, angle and kinematics were written, and only the fit stopped ("too few usable
+    samples"); a longer pan would have handed on a track of a marker seen from a moving view. Here: a blocky scene
+    panned 12 px a frame for 2 s with a dark ball in it, which LK cannot follow from the first frame past ~80 px."""
+    big = np.dstack([_blocks(3, 240, 1200)] * 3)
+    path = tmp_path / "pan.mp4"
+    with VideoWriter(path, width=360, height=240, fps=30.0, crf=20) as writer:
+        for k in range(60):
+            img = np.ascontiguousarray(big[:, 12 * k:12 * k + 360])
+            cv2.circle(img, (180, 150 + int(20 * np.sin(k / 3))), 8, (20, 20, 20), -1)
+            writer.write(img)
+    res = invoke("run", path, "--projection", "none", "--marker-color", "dark", "--out", tmp_path / "out", "-q")
+    one_line_error(res, "pan.mp4", "the camera turned away from its first view", "--start")
+    assert not (tmp_path / "out").exists()
