@@ -16,11 +16,15 @@ Accepted files
 * Vernier's own files, Logger Pro ``.cmbl`` and Graphical Analysis ``.gambl``
   (:mod:`pendtrack.tables.vernier`): their data sets read as the text table of their CSV export;
 * MATLAB data files ``.mat`` of versions 4 to 7 (:mod:`pendtrack.tables.matlab`): one numeric
-  matrix read as a headerless table, or equal-length vectors as columns named by their variables.
+  matrix read as a headerless table, or equal-length vectors as columns named by their variables;
+* times of day (:mod:`pendtrack.tables.clock_times`): a logger's first column ``14:23:05.123`` read
+  as seconds since the first row, and the Arduino Serial Monitor's ``14:23:05.123 -> payload``
+  lines read as the board's payload (its receive times only for lines of one value).
 
 Columns and units
 -----------------
-Columns are read **by name** (:mod:`pendtrack.tables.units`): ``t``/``time``/``timestamp``,
+Columns are read **by name** (:mod:`pendtrack.tables.units`): ``t``/``time``/``timestamp`` (and
+an Arduino sketch's ``millis``, ``micros``: t in ms, µs),
 ``theta``/``θ``/``angle``/``ang``/``phi``, ``x``, ``y`` (y up), ``y_down`` (y down); indexed names
 (``theta1``, ``x 1``) when there is one of a kind; a data-set prefix (``Run 1: Time (s)``) is
 read, and several data sets are an error naming the ``--columns`` that picks the first. Units follow

@@ -23,6 +23,7 @@ from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_cou
 from pendtrack.tables.text import raw_record, read_text
 from pendtrack.tables.trk import read_trk
 from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
+from pendtrack.tables.clock_times import MONITOR_ADVICE
 from pendtrack.tables.matlab import MATLAB_SUFFIXES, matlab_lines
 from pendtrack.tables.vernier import VERNIER_SUFFIXES, vernier_lines
 
@@ -249,6 +250,13 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
         info["warnings"].append(text)
     if "tracker" in raw:
         info["tracker"] = raw["tracker"]
+    if raw.get("clock") is not None:
+        info["clock"] = raw["clock"].describe()
+        if raw["clock"].receive_times:
+            text = (f"the times are the Arduino Serial Monitor's, when the computer received each line (t = 0 at "
+                    f"{raw['clock'].first}), not when the board measured it: {MONITOR_ADVICE}")
+            log.warning("%s: %s", path, text)
+            info["warnings"].append(text)
     theta = _theta_from_xy(raw, ok, spec, pivot_fit, info, path) if raw.get("theta") is None else raw["theta"]
     ok = ok & np.isfinite(theta)
     columns: dict[str, np.ndarray] = raw["columns"]

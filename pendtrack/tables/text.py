@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from pendtrack.errors import ConfigError
+from pendtrack.tables.clock_times import clock_lines
 from pendtrack.tables.rounded_times import digit_unit
 from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_hint, parse_column_name, roles,
                                     split_unit)
@@ -276,6 +277,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         :class:`ColumnName`), ``roles`` (role -> column index), ``kind`` ("table").
     """
     lines = read_lines(path) if lines is None else lines
+    lines, clock = clock_lines(lines, rate_hz=rate_hz)
     start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
     preamble, body = lines[:start], lines[start:]
     if not body:
@@ -384,6 +386,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     record = raw_record(values, found, cols, "table")
     if rate_hz is None:
         record["t_unit"] = t_unit
+    if clock is not None:
+        record["clock"] = clock
     return record
 
 

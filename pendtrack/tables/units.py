@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pendtrack.errors import ConfigError
 
 TIME_NAMES = frozenset({"t", "time", "timestamp", "times"})
+#: An Arduino sketch's clocks, named by the functions that read them, with the unit each counts in.
+ARDUINO_CLOCKS = {"millis": "ms", "millis()": "ms", "micros": "µs", "micros()": "µs"}
 THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ", "angular position", "angular displacement"})
 X_NAMES = frozenset({"x", "pos x", "position x", "x position"})
 Y_NAMES = frozenset({"y", "pos y", "position y", "y position"})
@@ -149,6 +151,8 @@ def parse_column_name(label: str, *, aliases: bool = True) -> ColumnName | None:
         return ColumnName("_", label=label)
     name, unit = split_unit(text)
     name = _CHANNEL_RE.sub("", name).strip()
+    if aliases and name in ARDUINO_CLOCKS and not unit:
+        name, unit = "time", ARDUINO_CLOCKS[name]
     index = None
     found = _role(name)
     if found is None:
