@@ -417,6 +417,7 @@ def free_swing(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, source: Any 
         raise KinematicsError(
             f"not a free swing: its amplitude grows from {drive.amplitude_low:.3g} rad at t = {drive.t_low:.4g} s to "
             f"{drive.amplitude_high:.3g} rad at t = {drive.t_high:.4g} s ({100.0 * drive.energy_rise:.0f} % more "
-            "energy), which no free pendulum does: it is driven (a motor, a hand) or does not swing in the camera's "
-            "plane; pendtrack's models are of free swings", path=source)
+            "energy), which no free pendulum does: it is driven (a motor, a hand), takes energy from a second "
+            "pendulum coupled to it, or does not swing in the camera's plane; pendtrack's models are of free swings",
+            path=source)
     return ok, (lift or hold), catch

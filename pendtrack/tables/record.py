@@ -25,6 +25,7 @@ from pendtrack.tables.trk import read_trk
 from pendtrack.tables.units import ColumnName, columns_hint, parse_column_name, parse_columns, roles
 from pendtrack.tables.clock_times import MONITOR_ADVICE
 from pendtrack.tables.matlab import MATLAB_SUFFIXES, matlab_lines
+from pendtrack.tables.spreadsheet import SAVE_ADVICE, SPREADSHEET_SUFFIXES, UNREAD_SUFFIXES, spreadsheet_lines
 from pendtrack.tables.vernier import VERNIER_SUFFIXES, vernier_lines
 
 log = logging.getLogger(__name__)
@@ -170,7 +171,7 @@ def is_video(path: str | Path) -> bool:
 
 def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: PivotFit | None = None,
                 min_samples: int = 0, purpose: str = "this stage") -> Record:
-    """Read theta(t) from an artifact, a Parquet file, a text table, a Tracker project, a Vernier or MATLAB file.
+    """Read theta(t) from an artifact, a Parquet file, a text table, a Tracker project, a Vernier, MATLAB or Excel file.
 
     Parameters
     ----------
@@ -221,6 +222,10 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=vernier_lines(path))
         elif suffix in MATLAB_SUFFIXES:
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=matlab_lines(path))
+        elif suffix in SPREADSHEET_SUFFIXES:
+            raw = read_text(path, spec.columns, rate_hz=spec.rate_hz, lines=spreadsheet_lines(path))
+        elif suffix in UNREAD_SUFFIXES:
+            raise ConfigError(f"{UNREAD_SUFFIXES[suffix]}, which pendtrack does not read: {SAVE_ADVICE}")
         else:
             raw = read_text(path, spec.columns, rate_hz=spec.rate_hz)
     except ConfigError as exc:
