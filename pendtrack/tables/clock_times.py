@@ -2,7 +2,7 @@
 
 A data logger (or a terminal program) that writes the time of day in its first column,
 ``14:23:05.123,114.62``, writes no number there: the line starts with ``HH:MM:SS`` (``.fff``
-optional) followed by a separator. :func:`clock_lines` writes that clock as seconds since the
+optional, an ISO date ``2023-11-24`` before it allowed) followed by a separator. :func:`clock_lines` writes that clock as seconds since the
 first line's, with the digits it was written to (so a written time's rounding is still known,
 :func:`pendtrack.tables.rounded_times.digit_unit`), across midnight if the log runs past it.
 
@@ -24,7 +24,8 @@ from dataclasses import dataclass
 from pendtrack.errors import ConfigError
 
 _CLOCK = r"(\d{1,2}):([0-5]\d):([0-5]\d)(?:[.,](\d{1,9}))?"
-_LOGGER_RE = re.compile(rf"^{_CLOCK}(?=[\t;,]|\s|$)")
+# a date before the clock (ISO, as a logger or Python's datetime writes it) is passed over: a record lasts minutes
+_LOGGER_RE = re.compile(rf"^(?:\d{{4}}-\d{{2}}-\d{{2}}[ T])?{_CLOCK}(?=[\t;,]|\s|$)")
 _MONITOR_RE = re.compile(rf"^{_CLOCK}\s*->\s?(.*)$")
 _ONE_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")  # a comma separates the board's values
 DAY_S = 86400

@@ -37,6 +37,9 @@ def test_clocks_become_seconds_since_the_first_to_the_digits_written_across_midn
     out, clock = clock_lines(lines)
     assert [s for _, s in out] == ["time,angle", "0.00,1.0", "0.25,1.5", "0.75,2.0"]
     assert clock is not None and clock.kind == "logger" and clock.first == "23:59:59.5"
+    dated = [(1, "time,angle"), (2, "2023-11-24 23:59:59.5,1.0"), (3, "2023-11-24T23:59:59.75,1.5"),
+             (4, "2023-11-25 00:00:00.25,2.0")]
+    assert [s for _, s in clock_lines(dated)[0]] == ["time,angle", "0.00,1.0", "0.25,1.5", "0.75,2.0"]
     plain = [(1, "t,theta"), (2, "0.0,1.0"), (3, "0.1,1.1")]
     assert clock_lines(plain) == (plain, None)
 
