@@ -19,6 +19,8 @@ Accepted files
   matrix read as a headerless table, or equal-length vectors as columns named by their variables;
 * Excel workbooks ``.xlsx``/``.xlsm`` (:mod:`pendtrack.tables.spreadsheet`): the one sheet of data
   read as a text table;
+* lines of labelled values, ``Angle (deg): 12.3`` (:mod:`pendtrack.tables.labelled_values`): the
+  labels are the header;
 * times of day (:mod:`pendtrack.tables.clock_times`): a logger's first column ``14:23:05.123`` read
   as seconds since the first row, and the Arduino Serial Monitor's ``14:23:05.123 -> payload``
   lines read as the board's payload (its receive times only for lines of one value).

@@ -22,6 +22,7 @@ import re
 from dataclasses import dataclass
 
 from pendtrack.errors import ConfigError
+from pendtrack.tables.labelled_values import labelled_lines
 
 _CLOCK = r"(\d{1,2}):([0-5]\d):([0-5]\d)(?:[.,](\d{1,9}))?"
 # a date before the clock (ISO, as a logger or Python's datetime writes it) is passed over: a record lasts minutes
@@ -123,7 +124,7 @@ def _monitor_lines(lines: list[tuple[int, str]], monitor: list[tuple[int, re.Mat
     stamped = [(n, m) for n, m in monitor if m is not None]
     first = stamped[0][1].group(0).split("->")[0].strip()
     payload = [(n, (m.group(5) if m is not None else s).strip()) for (n, s), (_, m) in zip(lines, monitor)]
-    payload = [(n, s) for n, s in payload if s]
+    payload = labelled_lines([(n, s) for n, s in payload if s])  # the board's "Angle: 12.3"
     data = [(n, s) for n, s in payload if re.match(r"^[+-]?(\d|\.\d)", s)]
     one_value = bool(data) and all(_ONE_NUMBER_RE.match(s) for _, s in data)
     if rate_hz is not None or not one_value:

@@ -40,6 +40,7 @@ import numpy as np
 
 from pendtrack.errors import ConfigError
 from pendtrack.tables.clock_times import clock_lines
+from pendtrack.tables.labelled_values import labelled_lines
 from pendtrack.tables.rounded_times import digit_unit
 from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_hint, parse_column_name, roles,
                                     split_unit)
@@ -278,6 +279,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     """
     lines = read_lines(path) if lines is None else lines
     lines, clock = clock_lines(lines, rate_hz=rate_hz)
+    if clock is None or clock.kind != "serial_monitor":  # a monitor's payload is read so already
+        lines = labelled_lines(lines)
     start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
     preamble, body = lines[:start], lines[start:]
     if not body:

@@ -98,3 +98,13 @@ def test_serial_monitor_lines_with_the_boards_own_time_use_it(tmp_path, name, sc
     np.testing.assert_allclose(rec.t, T + 5.0, rtol=0, atol=1e-9)
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
     assert rec.info["clock"]["receive_times"] is False and not rec.info["warnings"]
+
+
+def test_serial_monitor_lines_of_one_labelled_value(tmp_path):
+    src = tmp_path / "labelled.txt"
+    received = 51785.0 + T + 0.004  # no bursts
+    src.write_text("".join(f"{_clock(r)} -> Angle (deg): {d:.2f}\n" for r, d in zip(received, DEG)))
+    rec = read_record(src)  # the label names the unit
+    np.testing.assert_allclose(rec.t - rec.t[0], T, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rec.theta, np.radians(np.round(DEG, 2)), rtol=0, atol=1e-12)
+    assert rec.info["clock"]["receive_times"] is True
