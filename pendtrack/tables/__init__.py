@@ -7,7 +7,7 @@ Accepted files
 * any other Parquet file, read by its column names as a text table's header is, with an
   optional boolean ``ok``;
 * text tables (:mod:`pendtrack.tables.text`): CSV, semicolon, tab or white-space separated, a
-  decimal comma after a tab, semicolon or space; a plain log (``Time,Angle``, a headerless
+  decimal comma after a tab, semicolon or space; UTF-8, Windows-1252 or UTF-16 with its byte-order mark; a plain log (``Time,Angle``, a headerless
   encoder log), Tracker's data export (File > Export > Data: the track name, then ``t  x  y …``),
   Vernier Logger Pro and Video Analysis CSV (``"Latest: Time (s)"``, ``"VideoAnalysis: X (m)"``)
   and text exports (``Vernier Format 2``), phyphox CSV (``"Time (s)","Angle (deg)"``);
@@ -21,15 +21,17 @@ Accepted files
   read as a text table;
 * lines of labelled values, ``Angle (deg): 12.3`` (:mod:`pendtrack.tables.labelled_values`): the
   labels are the header;
-* times of day (:mod:`pendtrack.tables.clock_times`): a logger's first column ``14:23:05.123`` read
-  as seconds since the first row, and the Arduino Serial Monitor's ``14:23:05.123 -> payload``
+* times of day (:mod:`pendtrack.tables.clock_times`): a logger's first column ``14:23:05.123`` (or a
+  stopwatch's minutes and seconds, ``01:23.45``) read as seconds since the first row, and the Arduino Serial Monitor's ``14:23:05.123 -> payload``
   lines read as the board's payload (its receive times only for lines of one value).
 
 Columns and units
 -----------------
 Columns are read **by name** (:mod:`pendtrack.tables.units`): ``t``/``time``/``timestamp`` (and
 an Arduino sketch's ``millis``, ``micros``: t in ms, µs),
-``theta``/``θ``/``angle``/``ang``/``phi``, ``x``, ``y`` (y up), ``y_down`` (y down); indexed names
+``theta``/``θ``/``angle``/``ang``/``phi`` (the time's and the angle's names also in the languages lab
+software is localised to: ``Zeit``, ``Winkel``, ``tiempo``, ``ángulo``, ...), ``x``, ``y`` (y up), ``y_down``
+(y down); indexed names
 (``theta1``, ``x 1``) when there is one of a kind; a data-set prefix (``Run 1: Time (s)``) is
 read, and several data sets are an error naming the ``--columns`` that picks the first. Units follow
 the name in brackets or parentheses or after ``_`` (``t_s``, ``Time [ms]``, ``theta1_rad``,

@@ -1,10 +1,13 @@
-"""Times of day: a logger's ``14:23:05.123`` clock column, and the Arduino Serial Monitor's timestamps.
+"""Times of day: a logger's ``14:23:05.123`` clock column, a stopwatch's ``01:23.45``, and the Arduino Serial
+Monitor's timestamps.
 
 A data logger (or a terminal program) that writes the time of day in its first column,
 ``14:23:05.123,114.62``, writes no number there: the line starts with ``HH:MM:SS`` (``.fff``
 optional, an ISO date ``2023-11-24`` before it allowed) followed by a separator. :func:`clock_lines` writes that clock as seconds since the
 first line's, with the digits it was written to (so a written time's rounding is still known,
-:func:`pendtrack.tables.rounded_times.digit_unit`), across midnight if the log runs past it.
+:func:`pendtrack.tables.rounded_times.digit_unit`), across midnight if the log runs past it. An
+elapsed time in minutes and seconds (``MM:SS.ff``, as a stopwatch or a video player shows it) is read the
+same way; its decimals are required, as ``12:34`` alone could be hours and minutes.
 
 The Arduino IDE's Serial Monitor, with "Show timestamp" on, writes each line it received as
 ``14:23:05.123 -> payload``: the payload is what the board printed, and the clock is when the
@@ -28,6 +31,9 @@ _CLOCK = r"(\d{1,2}):([0-5]\d):([0-5]\d)(?:[.,](\d{1,9}))?"
 # a date before the clock (ISO, as a logger or Python's datetime writes it) is passed over: a record lasts minutes
 _LOGGER_RE = re.compile(rf"^(?:\d{{4}}-\d{{2}}-\d{{2}}[ T])?{_CLOCK}(?=[\t;,]|\s|$)")
 _MONITOR_RE = re.compile(rf"^{_CLOCK}\s*->\s?(.*)$")
+# a stopwatch's or a video player's elapsed time, minutes and seconds (decimals required: a bare "12:34" could
+# be hours and minutes, and whole seconds cannot time a swing)
+_ELAPSED_RE = re.compile(r"^()(\d{1,3}):([0-5]\d)[.,](\d{1,9})(?=[\t;,]|\s|$)")
 _ONE_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")  # a comma separates the board's values
 DAY_S = 86400
 MONITOR_ADVICE = ("print the board's own time in each line (e.g. millis() before the reading), or give the "
@@ -41,7 +47,8 @@ class ClockLog:
     Attributes
     ----------
     kind : str
-        ``"logger"`` (a clock column) or ``"serial_monitor"`` (Arduino Serial Monitor timestamps).
+        ``"logger"`` (a clock column), ``"elapsed"`` (minutes and seconds, ``01:23.45``) or
+        ``"serial_monitor"`` (Arduino Serial Monitor timestamps).
     receive_times : bool
         The Serial Monitor's receive times are the table's times (every line carries one value).
     first : str
@@ -59,7 +66,7 @@ class ClockLog:
 
 def _ticks(m: re.Match[str], digits: int) -> int:
     """The clock of match ``m`` in units of 10^-digits s since midnight."""
-    h, mi, s, frac = int(m.group(1)), int(m.group(2)), int(m.group(3)), m.group(4) or ""
+    h, mi, s, frac = int(m.group(1) or 0), int(m.group(2)), int(m.group(3)), m.group(4) or ""
     return ((h * 60 + mi) * 60 + s) * 10 ** digits + int((frac + "0" * digits)[:digits] or 0)
 
 
@@ -110,13 +117,14 @@ def clock_lines(lines: list[tuple[int, str]], *, rate_hz: float | None = None
     monitor = [(n, _MONITOR_RE.match(s)) for n, s in lines]
     if sum(m is not None for _, m in monitor) >= max(2, len(lines) // 2):
         return _monitor_lines(lines, monitor, rate_hz)
-    logger = [(n, s, _LOGGER_RE.match(s)) for n, s in lines]
-    stamped = [m for _, _, m in logger if m is not None]
-    if len(stamped) < max(2, len(lines) // 2):
-        return lines, None
-    seconds = iter(_since_first(stamped))
-    out = [(n, next(seconds) + s[m.end():] if m is not None else s) for n, s, m in logger]
-    return out, ClockLog("logger", False, stamped[0].group(0))
+    for kind, pattern in (("logger", _LOGGER_RE), ("elapsed", _ELAPSED_RE)):
+        logger = [(n, s, pattern.match(s)) for n, s in lines]
+        stamped = [m for _, _, m in logger if m is not None]
+        if len(stamped) >= max(2, len(lines) // 2):
+            seconds = iter(_since_first(stamped))
+            out = [(n, next(seconds) + s[m.end():] if m is not None else s) for n, s, m in logger]
+            return out, ClockLog(kind, False, stamped[0].group(0))
+    return lines, None
 
 
 def _monitor_lines(lines: list[tuple[int, str]], monitor: list[tuple[int, re.Match[str] | None]],

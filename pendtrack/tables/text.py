@@ -29,6 +29,8 @@ bob's x and y, y counting up or down as the path's arc shows (:func:`_arc`).
 
 from __future__ import annotations
 
+import codecs
+
 import csv
 import dataclasses
 import math
@@ -240,8 +242,14 @@ def _pair_names(field: str) -> list[ColumnName | None]:
 
 
 def read_lines(path: Path) -> list[tuple[int, str]]:
-    """Numbered non-blank, non-comment lines (UTF-8, else Windows-1252 as Logger Pro writes)."""
+    """Numbered non-blank, non-comment lines (UTF-8, UTF-16 with its byte-order mark, else Windows-1252 as
+    Logger Pro writes)."""
     data = path.read_bytes()
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):  # Windows' "Unicode text" (Excel, Notepad)
+        try:
+            data = data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            pass  # not text after all: refused as binary below
     if b"\x00" in data[:4096]:
         raise ConfigError("not a text table (binary data): expected columns t [s], theta [rad]")
     try:

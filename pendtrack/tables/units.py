@@ -14,10 +14,15 @@ from dataclasses import dataclass
 
 from pendtrack.errors import ConfigError
 
-TIME_NAMES = frozenset({"t", "time", "timestamp", "times"})
+#: The names of the time and the angle, also in the languages lab software is localised to (Logger Pro, PASCO,
+#: phyphox): German, French, Spanish, Portuguese, Italian, Dutch, Polish, Czech, Swedish, Finnish, Turkish, Russian.
+TIME_NAMES = frozenset({"t", "time", "timestamp", "times", "zeit", "temps", "tiempo", "tempo", "tijd", "czas", "čas",
+                        "aika", "zaman", "время"})
 #: An Arduino sketch's clocks, named by the functions that read them, with the unit each counts in.
 ARDUINO_CLOCKS = {"millis": "ms", "millis()": "ms", "micros": "µs", "micros()": "µs"}
-THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ", "angular position", "angular displacement"})
+THETA_NAMES = frozenset({"theta", "θ", "angle", "ang", "phi", "φ", "angular position", "angular displacement",
+                         "winkel", "ángulo", "angulo", "ângulo", "angolo", "hoek", "kąt", "úhel", "vinkel", "kulma",
+                         "açı", "угол"})
 X_NAMES = frozenset({"x", "pos x", "position x", "x position"})
 Y_NAMES = frozenset({"y", "pos y", "position y", "y position"})
 Y_DOWN_NAMES = frozenset({"y_down", "ydown", "y down"})
@@ -25,11 +30,15 @@ Y_DOWN_NAMES = frozenset({"y_down", "ydown", "y down"})
 TIME_UNITS: Mapping[str, float] = {
     "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "msec": 1e-3,
     "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "ns": 1e-9, "min": 60.0,
+    "с": 1.0, "мс": 1e-3,  # Cyrillic s and ms
 }
 #: Factors to rad.
 ANGLE_UNITS: Mapping[str, float] = {
-    "rad": 1.0, "rads": 1.0, "radian": 1.0, "radians": 1.0, "mrad": 1e-3,
+    "rad": 1.0, "rads": 1.0, "radian": 1.0, "radians": 1.0, "mrad": 1e-3, "рад": 1.0,
     "deg": math.pi / 180, "degree": math.pi / 180, "degrees": math.pi / 180, "°": math.pi / 180,
+    # the same word in the languages of TIME_NAMES ("grad" is left out: it is also the gradian's symbol)
+    **{word: math.pi / 180 for word in ("grados", "graus", "gradi", "degrés", "degres", "graden", "stopnie", "grader",
+                                        "astetta", "derece", "градусы", "град")},
 }
 #: Factors to m; ``px`` (image pixels) is a unit of its own (None).
 LENGTH_UNITS: Mapping[str, float | None] = {

@@ -108,3 +108,22 @@ def test_serial_monitor_lines_of_one_labelled_value(tmp_path):
     np.testing.assert_allclose(rec.t - rec.t[0], T, rtol=0, atol=1e-9)
     np.testing.assert_allclose(rec.theta, np.radians(np.round(DEG, 2)), rtol=0, atol=1e-12)
     assert rec.info["clock"]["receive_times"] is True
+
+
+def test_a_stopwatchs_minutes_and_seconds_are_read_as_the_time(tmp_path):
+    """``MM:SS.fff`` (a stopwatch's or a video player's elapsed time) is the time, past the hour's 60 minutes;
+    a bare ``12:34`` (hours and minutes, or minutes and seconds?) is not taken for one."""
+    lines = [(1, "time,angle"), (2, "59:59.75,1.0"), (3, "60:00.00,1.5"), (4, "60:00.25,2.0")]
+    out, clock = clock_lines(lines)
+    assert [s for _, s in out] == ["time,angle", "0.00,1.0", "0.25,1.5", "0.50,2.0"]
+    assert clock is not None and clock.kind == "elapsed" and clock.first == "59:59.75"
+    bare = [(1, "time,angle"), (2, "12:34,1.0"), (3, "12:35,1.5")]
+    assert clock_lines(bare) == (bare, None)
+    src = tmp_path / "stopwatch.csv"
+    src.write_text("time,angle (deg)\n" + "".join(f"{int(t // 60):02d}:{t % 60:06.3f},{d!r}\n"
+                                                   for t, d in zip(T + 55.0, DEG)))  # past a minute's turn
+    rec = read_record(src)
+    # written to 1 ms, the rows 10 ms apart: the times exact to the millisecond's rounding
+    np.testing.assert_allclose(rec.t - rec.t[0], T, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
+    assert rec.info["clock"]["kind"] == "elapsed"

@@ -80,6 +80,14 @@ def _write(folder: Path, form: str) -> tuple[Path, tuple[str, ...]]:
         p = folder / "encoder.txt"
         p.write_text(_lines(np.degrees(THETA)))
         return p, ("--columns", "theta[deg]", "--rate", repr(RATE))
+    if form == "german_semicolon":  # Logger Pro in German: names and decimal commas of the locale, Windows-1252
+        p = folder / "pendel.csv"
+        p.write_bytes(("Zeit (s);Winkel (°)\n" + _lines(T, np.degrees(THETA), sep=";").replace(".", ",")).encode("cp1252"))
+        return p, ()
+    if form == "utf16_spanish":  # Windows' "Unicode text" (UTF-16 with its byte-order mark), tab separated
+        p = folder / "pendulo.txt"
+        p.write_text("tiempo (s)\tángulo (grados)\n" + _lines(T, np.degrees(THETA), sep="\t"), encoding="utf-16")
+        return p, ()
     if form == "parquet":
         p = folder / "plain.parquet"
         pd.DataFrame({"t": T, "theta": THETA}).to_parquet(p)
@@ -93,7 +101,7 @@ def _write(folder: Path, form: str) -> tuple[Path, tuple[str, ...]]:
 
 
 FORMS = ("plain", "three_columns", "degrees_header", "ms_theta_symbol", "xy_pivot", "xy_fitted", "xy_down_columns",
-         "rate", "parquet", "angle_artifact")
+         "rate", "german_semicolon", "utf16_spanish", "parquet", "angle_artifact")
 
 
 def _spec(flags: tuple[str, ...]) -> TableSpec | None:
@@ -232,8 +240,15 @@ def test_a_rate_times_a_log_of_angles_and_is_recorded(tmp_path):
     ("theta", "theta", 1.0), ("θ", "theta", 1.0), ("Angle (deg)", "theta", math.pi / 180),
     ("theta_deg", "theta", math.pi / 180), ("theta [rad]", "theta", 1.0), ("angle°", "theta", math.pi / 180),
     ("x [m]", "x", 1.0), ("y_down", "y", 1.0), ("_", "_", 1.0),
+    ("Zeit (s)", "t", 1.0), ("temps (ms)", "t", 1e-3), ("Winkel (°)", "theta", math.pi / 180),
+    ("ángulo (grados)", "theta", math.pi / 180), ("время (мс)", "t", 1e-3), ("угол (рад)", "theta", 1.0),
+    ("angle (gon)", None, None),
 ])
 def test_column_names_and_units(label, role, scale):
+    if role is None:  # a unit not known: refused, not guessed
+        with pytest.raises(ConfigError, match="unknown unit"):
+            parse_column_name(label)
+        return
     c = parse_column_name(label)
     assert c is not None and c.role == role and c.scale == pytest.approx(scale)
 
