@@ -11,7 +11,8 @@ leaves a band ``b`` around ``theta_h`` within ``t_free = sqrt(2 b / (Omega0^2 |s
 leading samples are a hold when they stay within the band for longer than :data:`HOLD_FACTOR`
 ``t_free`` and :data:`MIN_HOLD_S`: no free swing does. A release near the top (``sin theta_h``
 small) or a bob at rest at the bottom is left alone: there a long stay is what a free pendulum
-does too.
+does too. The hold ends where the bob moves away as one let go does (:func:`_released`):
+a tracker's jump by a pixel while the bob is held does not end it.
 
 **The catch.** The trailing samples at rest (within a band, for at least :data:`MIN_HOLD_S`, a
 period, and :data:`HOLD_FACTOR` times the time a free bob of the swing's amplitude stays within it
@@ -59,12 +60,15 @@ from typing import Any
 import numpy as np
 
 from pendtrack.kinematics.differentiate import KinematicsError, dominant_period
-from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, MIN_REST_SAMPLES, leading_rest, smallest_step
+from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, MIN_REST_SAMPLES, departure, leading_rest, smallest_step
 
 log = logging.getLogger(__name__)
 
 HOLD_FACTOR = 3.0  # a hold lasts longer than 3 x the time a free bob takes to leave the band
 MIN_HOLD_S = 0.2  # ... and at least this long [s]: a free release's first samples never are a hold
+RELEASE_BANDS = 4.0  # a bob let go is this many bands from its hold 2 t_free after it left the band (a free one: 9)
+RELEASE_LOOK_S = 0.1  # ... and a quarter of its free path a t^2 / 2 from there this long after [s] (a pixel's jump is not)
+RELEASE_TRIES = 8  # times the band may grow to hold a tracker's jitter before the hold's end is taken as found
 CATCH_FACTOR = 4.0  # a catch stops a swing 4 x larger than one half period's loss (a Coulomb stop: < 2.5 x)
 CATCH_BANDS = 4.0  # ... and 4 bands (24 noise sigmas) large: a swing fading into the band is no catch
 CATCH_REST_PERIODS = 1.0  # the rest after a catch lasts a period at least (a short one may be noise)
@@ -185,6 +189,30 @@ def _first_window(tt: np.ndarray) -> int:
     return max(MIN_REST_SAMPLES, int(0.5 * MIN_HOLD_S / float(np.median(np.diff(tt)))))
 
 
+def _released(tt: np.ndarray, th: np.ndarray, dep: int, level: float, band: float,
+              accel: float) -> tuple[int, float, float] | None:
+    """The departure from the rest that is the release: ``(dep, level, band)``, or None if the bob never leaves.
+
+    A bob let go leaves the band ``b`` with the acceleration ``accel``: ``2 t_free`` later
+    (``t_free = sqrt(2 b / accel)``) it is ``9 b`` from its level, and ``T`` later at least a quarter of
+    ``accel T^2 / 2`` (:data:`RELEASE_LOOK_S`). A tracker's jitter that leaves a band made from runs of
+    one repeated value (whose differences are zero: no noise to see), a pixel's jump, stays near the
+    level: then the band grows to hold every sample so far, and the departure is looked for again.
+    """
+    h = float(np.median(np.diff(tt)))
+    for _ in range(RELEASE_TRIES):
+        look = max(2.0 * math.sqrt(2.0 * band / accel), RELEASE_LOOK_S) + 2.0 * h
+        end = int(np.searchsorted(tt, tt[dep] + look, side="right"))
+        reach = float(np.max(np.abs(th[dep:end] - level)))
+        if reach >= max(RELEASE_BANDS * band, 0.25 * 0.5 * accel * (look - 2.0 * h) ** 2):
+            return dep, level, band
+        band = 1.5 * float(np.max(np.abs(th[:end] - level)))
+        dep = departure(th, level, band)
+        if dep >= th.size - 2 * MIN_REST_SAMPLES:
+            return None
+    return dep, level, band
+
+
 def find_hold(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Hold | None:
     """The hold at the start of a record, or None.
 
@@ -216,6 +244,10 @@ def find_hold(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Hold | None:
     accel = (2.0 * math.pi / period) ** 2 * abs(math.sin(level)) if math.isfinite(period) else 0.0
     if not accel > 0:
         return None
+    released = _released(tt, th, dep, level, band, accel)
+    if released is None:
+        return None
+    dep, level, band = released
     t_free = math.sqrt(2.0 * band / accel)
     stay = float(tt[dep] - tt[0])
     if stay <= max(HOLD_FACTOR * t_free, MIN_HOLD_S):

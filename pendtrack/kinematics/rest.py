@@ -24,7 +24,7 @@ def _level_and_band(theta: np.ndarray, quantum: float) -> tuple[float, float]:
     return float(np.median(theta)), max(BAND_SIGMAS * sigma, BAND_QUANTA * quantum)
 
 
-def _departure(theta: np.ndarray, level: float, band: float) -> int:
+def departure(theta: np.ndarray, level: float, band: float) -> int:
     """Index of the first of two samples in a row outside ``level +- band`` (len(theta) if none)."""
     out = np.abs(theta - level) > band
     both = out[:-1] & out[1:]
@@ -46,10 +46,10 @@ def leading_rest(theta: np.ndarray, quantum: float, first: int) -> tuple[int, fl
     has no swing to free).
     """
     level, band = _level_and_band(theta[:first], quantum)
-    dep = _departure(theta, level, band)
+    dep = departure(theta, level, band)
     if dep >= MIN_REST_SAMPLES:  # the level and noise again from the whole stretch at rest
         level, band = _level_and_band(theta[:dep], quantum)
-        dep = _departure(theta, level, band)
+        dep = departure(theta, level, band)
     if dep < MIN_REST_SAMPLES or dep >= theta.size - 2 * MIN_REST_SAMPLES or not band > 0:
         return None
     return dep, level, band
