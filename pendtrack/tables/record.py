@@ -16,7 +16,7 @@ from pendtrack.artifacts import Provenance, read_artifact, read_metadata
 from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.gitlfs import is_lfs_pointer, lfs_message
-from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds
+from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds, turning_values
 from pendtrack.tables.rounded_times import retime_rounded
 from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, resample_irregular,
                                    resample_jittered, time_layout)
@@ -442,6 +442,10 @@ def theta_from_xy(x: np.ndarray, y: np.ndarray, *, pivot: tuple[float, float], y
     return theta
 
 
+SIDEWAYS_RAD = math.pi / 4  # positions whose swing is centred this far from straight down and from straight up (y's sign
+# the other way, refused below) have gravity along x
+
+
 def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_fit: PivotFit | None,
                    info: dict[str, Any], path: Path) -> np.ndarray:
     x, y, y_down = raw["x"], raw["y"], raw["y_down"]
@@ -455,6 +459,14 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
     else:
         raise ArtifactError("x, y columns need the pivot: give --pivot X Y (in the table's units)", path=path)
     theta = theta_from_xy(x, y, pivot=pivot, y_down=y_down)
+    ext = turning_values(theta[usable])
+    centre = float(np.median(0.5 * (ext[1:] + ext[:-1]))) if ext.size >= 3 else 0.0
+    if SIDEWAYS_RAD < abs(centre) < math.pi - SIDEWAYS_RAD:  # gravity along x: the angle's zero would mean nothing
+        raise ArtifactError(f"the bob swings about a direction {math.degrees(centre):.0f} degrees from straight down "
+                            f"(y {'down' if y_down else 'up'}, pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) from the "
+                            "positions): the vertical is not the y column; if the camera was turned or the columns are "
+                            "swapped, name them so that y is the vertical (e.g. --columns t,y,x or t,y_down,x for the "
+                            "file's second and third columns)", path=path)
     below = (y[usable] - pivot[1]) * (1.0 if y_down else -1.0)
     if below.size and np.median(below) < 0:
         axis, other = ("down", "y") if y_down else ("up", "y_down")

@@ -572,3 +572,17 @@ def test_lab1_needs_columns_and_then_reads_20_hz(tmp_path):
     assert rec.warnings == ()
     res = invoke("kinematics", str(REAL), "--columns", "t,theta,_", "--out", str(tmp_path), "-q")
     assert res.exit_code == 0 and "Omega0 =" in res.output
+
+
+def test_positions_from_a_turned_camera_are_refused_naming_the_columns(tmp_path):
+    """A camera turned by 90 degrees (georgePadolsey/PendulaTools' `pts-*.txt`: `t x y` with the swing along y)
+    puts the bob's swing 90 degrees from straight down: its angle's zero would be meaningless, and the fit of
+    such a record ran for minutes. Refused, naming the columns; with them, the record reads as the plain one."""
+    src = tmp_path / "turned.txt"
+    src.write_text(_lines(T, PY - Y, X - PX))  # gravity along +x; the horizontal along y
+    res = invoke("kinematics", str(src), "--columns", "t,x,y", "--out", str(tmp_path / "out"))
+    _one_line_error(res, "the vertical is not the y column")
+    assert "--columns t,y,x or t,y_down,x" in res.output and not (tmp_path / "out").exists()
+    rec = read_input(src, table=TableSpec(columns=parse_columns("t,y_down,x", check_roles=False)))
+    # y_down = PY - Y points down, x = X - PX: the plain record's angle about the fitted pivot (exact data)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
