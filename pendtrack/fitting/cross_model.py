@@ -54,7 +54,7 @@ class Relation:
     @property
     def ratio(self) -> float:
         """lhs / rhs [1]."""
-        return self.lhs / self.rhs if self.rhs != 0 else math.nan
+        return self.lhs / self.rhs if self.rhs != 0 and math.isfinite(self.rhs) else math.nan
 
     @property
     def z(self) -> float:
@@ -98,6 +98,14 @@ def _propagate(result: FitResult, grads: Mapping[str, float]) -> float:
     return math.sqrt(var) if var >= 0 else math.nan
 
 
+def _pow2(x: float) -> float:
+    """2**x, ``inf`` where it overflows (a drag exponent far out on a fit that failed)."""
+    try:
+        return 2.0**x
+    except OverflowError:
+        return math.inf
+
+
 def cross_model_relations(classic: FitResult, fractional: FitResult) -> CrossModel:
     """G1 vs C0/(4 Omega0^2), G2 vs C3/(2^(2-p) Omega0^2), p_f - beta vs p.
 
@@ -128,8 +136,9 @@ def cross_model_relations(classic: FitResult, fractional: FitResult) -> CrossMod
 
     g1_rhs = c0 / (4 * w0**2)
     g1_se = _propagate(classic, {"C0": 1 / (4 * w0**2), "Omega0": -2 * g1_rhs / w0})
-    g2_rhs = c3 * 2.0 ** (p - 2.0) / w0**2
-    g2_se = _propagate(classic, {"C3": 2.0 ** (p - 2.0) / w0**2, "p": g2_rhs * math.log(2.0),
+    scale = _pow2(p - 2.0) / w0**2
+    g2_rhs = c3 * scale
+    g2_se = _propagate(classic, {"C3": scale, "p": g2_rhs * math.log(2.0),
                                  "Omega0": -2 * g2_rhs / w0})
     pf_beta = f["p_f"] - f["beta"]
     pf_beta_se = _propagate(fractional, {"p_f": 1.0, "beta": -1.0})

@@ -96,22 +96,22 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     mask = record.usable()
     summary = record.summary()
     memory_s, full_history = model_options.memory_s, model_options.full_history
-    problem = build_problem(model, record.t, record.theta, record.omega, ok=mask, cost=options.cost,
-                            omega0_hat=summary.omega0_hat, observation=record.observation, memory_s=memory_s,
-                            full_history=full_history, simulator=simulator, method=method, source=record.source,
-                            max_step_s=model_options.max_step_s, jacobian_method=options.jacobian,
-                            substep_phase=options.substep_phase, steer_phase=options.steer_phase,
-                            rung_phase=options.rung_phase)
-    n_fit = len(problem.all_names) - len(fixed or {})
-    if problem.n < max(3 * n_fit, 60):
-        raise FitError(f"too few usable samples to fit model '{model.name}' ({problem.n})", path=record.source)
-
-    grid, (th_g, om_g), present = uniform_series(problem, record.t, [record.theta, record.omega], mask)
     meas_start, meas_scale = measurement_estimates(model, summary)
     theta_off_hat = meas_start.get("theta_off", 0.0)
     for given in (initial, fixed):  # a warm start's or a held zero offset is the model's (fixed wins)
         if "theta_off" in meas_start and given and "theta_off" in given:
             theta_off_hat = float(given["theta_off"])
+    problem = build_problem(model, record.t, record.theta, record.omega, ok=mask, cost=options.cost,
+                            omega0_hat=summary.omega0_hat, observation=record.observation, memory_s=memory_s,
+                            full_history=full_history, simulator=simulator, method=method, source=record.source,
+                            max_step_s=model_options.max_step_s, jacobian_method=options.jacobian,
+                            substep_phase=options.substep_phase, steer_phase=options.steer_phase,
+                            rung_phase=options.rung_phase, theta_zero=theta_off_hat)
+    n_fit = len(problem.all_names) - len(fixed or {})
+    if problem.n < max(3 * n_fit, 60):
+        raise FitError(f"too few usable samples to fit model '{model.name}' ({problem.n})", path=record.source)
+
+    grid, (th_g, om_g), present = uniform_series(problem, record.t, [record.theta, record.omega], mask)
     # the physics on the model's angle: the data's angle less the estimated zero offset
     est = equation_error_estimates(model.physics() if meas_start else model, grid, th_g - theta_off_hat, om_g,
                                    omega0_hat=summary.omega0_hat, memory_s=memory_s, full_history=full_history,

@@ -48,6 +48,7 @@ from pendtrack.models.timegrid import check_time
 log = logging.getLogger(__name__)
 
 MAX_WINDOW_PERIOD_FRACTION = 0.25  # window <= this fraction of the oscillation period
+MIN_HALF_PERIOD_SAMPLES = 3  # turning points closer than this (median, in samples) are noise, not half swings
 UNIFORM_RTOL = 1e-9  # timestamps within this fraction of h of the grid count as on it
 
 
@@ -134,9 +135,11 @@ def swing_period(theta: np.ndarray, h: float) -> float:
     period = dominant_period(theta, h)
     turns = turning_points(theta)
     if turns.size >= 2:
-        spaced = 2.0 * h * float(np.median(np.diff(turns)))
-        if spaced < 0.5 * period:
-            return spaced
+        half = float(np.median(np.diff(turns)))
+        # turning points a few samples apart are the noise's, not a swing's (a micro:bit's angle whose
+        # sample-to-sample noise exceeds a tenth of its range, 1-2 samples apart): a swing is sampled 6 times a period
+        if half >= MIN_HALF_PERIOD_SAMPLES and 2.0 * h * half < 0.5 * period:
+            return 2.0 * h * half
     return period
 
 

@@ -190,6 +190,24 @@ def test_toy_local_fit_recovers_truth_through_the_ladder():
     assert out.x[1] == pytest.approx(0.05, rel=0.05)
 
 
+def _blowing_up(model, params, t, *, theta0, omega0, memory_s, method):  # noqa: ANN001, ANN201
+    """A simulation far out for every parameter value (a drag exponent at 1e8 on noise): finite values whose
+    squares overflow, so no evaluation has a finite cost."""
+    huge = np.full(np.asarray(t).size, 1e200)
+    return SimpleNamespace(theta=huge, omega=huge)
+
+
+def test_a_window_whose_every_evaluation_blows_up_ends_at_infinite_cost_not_an_exception():
+    # found on a micro:bit's 5-s accelerometer angle: the profile's inner fit of a drag exponent at 1e8
+    # never saw a finite cost, and `fit` ended in "least squares made no evaluation"
+    t, th, om, _ = toy_data(seconds=8.0)
+    prob = build_problem(ToyModel(), t, th, om, omega0_hat=5.0, simulator=_blowing_up)
+    x0 = np.array([5.0, 0.05, 0.8, 0.0])
+    out = fit_window(prob, x0, last=True)
+    assert out.cost == math.inf and out.calls > 0 and out.status == 0
+    np.testing.assert_array_equal(out.x, x0)
+
+
 @pytest.mark.integration
 def test_starts_in_worker_processes_equal_serial_run():
     t, th, om, _ = toy_data(seconds=8.0)
@@ -338,6 +356,15 @@ def test_cross_model_relations_follow_the_paper():
     assert set(cm.to_dict()["relations"]) == {"G1", "G2", "p_f-beta"}
     with pytest.raises(FitError):
         cross_model_relations(frac, classic)
+
+
+def test_cross_model_relations_of_a_classic_fit_with_a_runaway_exponent_are_not_finite_not_an_error():
+    # found on a micro:bit's noisy angle: the classic fit's p ran to ~1e8 and 2**(p-2) overflowed
+    classic = _result("classic", {"Omega0": 4.0, "C0": 0.02, "C3": 0.05, "p": 1.0e8, "Ca": 0.01})
+    frac = _result("fractional", {"Omega0": 4.0, "G1": 0.001, "G2": 0.003, "beta": 0.5, "p_f": 2.0})
+    cm = cross_model_relations(classic, frac)
+    assert not math.isfinite(cm["G2"].rhs) and math.isnan(cm["G2"].ratio)
+    json.dumps(cm.to_dict(), allow_nan=False)
 
 
 def test_require_converged():

@@ -130,6 +130,26 @@ def test_fit_cli_on_a_plain_table_reports_theta_off(tmp_path):
     assert abs(rec["params"]["theta_off"]["value"] - OFFSET) < 3.0 * rec["params"]["theta_off"]["stderr"]
 
 
+@pytest.mark.integration
+def test_an_angle_measured_from_the_horizontal_is_fitted_about_its_own_zero(tmp_path):
+    # a sensor's atan2 angle (a micro:bit's, ES2Spring2019-ComputinginEngineering/project-one-molitor-galuppo)
+    # or Tracker's angle of a point from the x axis swings about ~90 degrees: Omega0's estimate through the
+    # origin found no slope ("no restoring torque"), and theta0 was bounded within 1 rad of the first sample
+    # as if the zero were the vertical, so the fit ended at rms 86 mrad on a 1-mrad record
+    centre = 0.5 * np.pi - 0.08  # [rad] a hanging pendulum seen from a sensor's axis 85 degrees off
+    t, theta = swing("standard", STANDARD, seconds=20.0, theta0=0.8, noise=1e-3, seed=3,
+                     measured=lambda th: th + centre)
+    table = tmp_path / "sensor.csv"
+    np.savetxt(table, np.column_stack([t, theta]), delimiter=",", header="t,theta", comments="")
+    fit_stage(table, out_dir=tmp_path / "fit", config=FAST, models=("standard",), progress=False)
+    rec = json.loads((tmp_path / "fit" / "fit_standard.json").read_text())
+    assert rec["converged"], rec["message"]
+    assert rec["rms"] < 2e-3  # the 1-mrad noise, smoothed: the fit follows the record
+    off = rec["params"]["theta_off"]
+    assert abs(off["value"] - centre) < 3.0 * off["stderr"]
+    assert abs(rec["params"]["Omega0"]["value"] - STANDARD["Omega0"]) < 3.0 * rec["params"]["Omega0"]["stderr"]
+
+
 def test_run_report_states_the_fitted_zero():
     from pendtrack.report.run_report import zero_offsets
 

@@ -147,6 +147,21 @@ def test_a_window_longer_than_the_swing_is_clipped_when_the_record_then_rests() 
     assert k.info["window_clipped"] and k.info["window_points"] == 5
 
 
+def test_the_window_guard_takes_the_swings_period_not_the_noises() -> None:
+    # a micro:bit's accelerometer angle (ES2Spring2019-ComputinginEngineering/project-one-molitor-galuppo,
+    # "Pendulum Data 24 cm.csv"): a 0.8-Hz swing of 30 mrad under sample noise of half that, 33 Hz for 5 s.
+    # Its zigzag turning points are 1-2 samples apart, so the guard took a period of 0.12 s and clipped the
+    # window to 5 points; the spectral peak is the swing's
+    from pendtrack.kinematics.differentiate import swing_period
+
+    h = 0.03
+    t = np.arange(0.0, 5.0, h)
+    th = 1.49 + 0.03 * np.sin(2 * np.pi * 0.8 * t) + np.random.default_rng(5).normal(0.0, 0.015, t.size)
+    # the spectrum of 5 s resolves 0.2 Hz: 0.8 Hz reads between 0.6 and 1.0 Hz
+    assert 1.0 <= swing_period(th, h) <= 1.0 / 0.6
+    assert not savgol_kinematics(t, th, window_s=0.2).info["window_clipped"]
+
+
 @pytest.mark.parametrize(
     ("t", "theta", "ok", "pattern"),
     [
@@ -195,6 +210,21 @@ def test_omega0_is_not_set_by_a_rest_after_a_few_swings() -> None:
     al = np.concatenate([[-249.3, 91.6, -30.9, 12.2], rng.normal(0.0, 1e-6, 20)])
     with pytest.raises(FitError, match="too few swings above the noise"):
         estimate_omega0(th, al)
+
+
+@pytest.mark.parametrize("centre", [0.3, 1.49, -1.5708])
+def test_omega0_of_a_swing_about_another_zero_is_the_swing_about_its_own(centre: float) -> None:
+    # turning angles c +- A give the through-origin slope k / (1 + (c/A)^2): Omega0 2.66 instead of 4.12
+    # for c = A = 0.3, and no restoring slope at all about an atan2 sensor's 85 degrees
+    rng = np.random.default_rng(4)
+    th = np.tile([0.3, -0.29], 10) * np.linspace(1.0, 0.7, 20)
+    al = -4.0 ** 2 * np.sin(th) + rng.normal(0, 0.01, 20)
+    about_zero = estimate_omega0(th, al)
+    shifted = estimate_omega0(th + centre, al)
+    # the swing about 0 keeps its own 3-mrad centre (under 5 % of its amplitude: left as measured), the shifted
+    # one has it removed too: (3 mrad / 0.25 rad)^2 / 2 ~ 7e-5 of Omega0 apart
+    assert shifted.omega0 == pytest.approx(about_zero.omega0, rel=2e-4)
+    assert abs(about_zero.omega0 - 4.0) < 4 * about_zero.stderr
 
 
 def test_omega0_outliers_are_judged_from_the_median_residual() -> None:

@@ -24,6 +24,7 @@ warm the simulator once (numba kernels load from their ``cache=True`` cache or c
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import as_completed
 from dataclasses import dataclass
@@ -273,7 +274,12 @@ def fit_window(sub: FitProblem, x: np.ndarray, *, last: bool, max_nfev: int | No
         else:
             status, message = 0, f"stopped after {tracker.calls} evaluations"
     if tracker.best_x is None:
-        raise ValueError("least squares made no evaluation")  # programming error
+        if tracker.calls == 0:
+            raise ValueError("least squares made no evaluation")  # programming error
+        # every evaluation was non-finite (the model blows up from this start, e.g. a drag exponent far
+        # out): the start is kept where it was, at infinite cost, for the caller to rank or discard
+        return WindowFit(x=np.array(x, dtype=float), cost=math.inf, calls=tracker.calls, status=0,
+                         message=f"no finite cost in {tracker.calls} evaluations")
     return WindowFit(x=tracker.best_x, cost=tracker.best_cost, calls=tracker.calls, status=status, message=message)
 
 

@@ -161,7 +161,8 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
                   observation: Observation | None = None, memory_s: float = MEMORY_S,
                   full_history: bool = False, simulator: Simulator | None = None, method: str = "auto",
                   source: str = "the data", max_step_s: float | None = None, jacobian_method: str = "fd",
-                  substep_phase: float = 0.0, steer_phase: float = 0.0, rung_phase: float = 0.0) -> FitProblem:
+                  substep_phase: float = 0.0, steer_phase: float = 0.0, rung_phase: float = 0.0,
+                  theta_zero: float = 0.0) -> FitProblem:
     """The :class:`FitProblem` of a record (usable samples mapped onto the simulation grid).
 
     Parameters
@@ -183,6 +184,9 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
     substep_phase, steer_phase, rung_phase : float
         :attr:`FitProblem.substep_phase`, :attr:`FitProblem.steer_phase`, :attr:`FitProblem.rung_phase`
         (``[fit]`` keys of those names) [rad].
+    theta_zero : float
+        The data's angle of the model's theta = 0 [rad]: the estimated ``theta_off`` of a model with the
+        offset term, else 0. ``theta0`` is bounded within 1 rad of the first sample less it.
     """
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
@@ -202,7 +206,7 @@ def build_problem(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarra
     if "Omega0" in names:
         j = names.index("Omega0")
         upper[j] = min(upper[j], np.pi / h)
-    th_init = float(theta[mask][0])
+    th_init = float(theta[mask][0]) - float(theta_zero)
     om_init = float(omega[mask][0])
     lower = np.concatenate((lower, [th_init - 1.0, om_init - 2.0 * omega0_hat]))
     upper = np.concatenate((upper, [th_init + 1.0, om_init + 2.0 * omega0_hat]))
