@@ -11,13 +11,14 @@ whose message names the file.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from pendtrack.kinematics import swing_centre_shift
 from pendtrack.kinematics.free_swing import free_swing
-from pendtrack.tables import PivotFit, Record, TableSpec, is_video, read_record
+from pendtrack.tables import PivotFit, Record, TableSpec, is_video, read_record, turning_values
 
 __all__ = ["MIN_SAMPLES", "AngleSeries", "is_video", "read_angle_series", "series_from_record"]
 
@@ -41,6 +42,9 @@ class AngleSeries:
         metadata) or ``"table"`` (a text file).
     smoothed : bool
         True when ``theta`` is already Savitzky-Golay smoothed (a kinematics artifact).
+    zero_shift : float
+        Subtracted from the file's angle [rad]: the swing's centre when the file's zero is far from it
+        (:meth:`centred`), else 0.
     """
 
     t: np.ndarray
@@ -48,6 +52,7 @@ class AngleSeries:
     source: Path
     kind: str
     smoothed: bool = False
+    zero_shift: float = 0.0
 
     @property
     def n(self) -> int:
@@ -71,7 +76,19 @@ class AngleSeries:
 
     def to_dict(self) -> dict[str, object]:
         return {"source": str(self.source), "kind": self.kind, "n": self.n, "rate_hz": self.rate_hz,
-                "duration_s": self.duration, "smoothed": self.smoothed}
+                "duration_s": self.duration, "smoothed": self.smoothed, "zero_shift_rad": self.zero_shift}
+
+    def centred(self) -> AngleSeries:
+        """The series about its swing's centre when the file's zero is far from it (a sensor's atan2 angle,
+        an angle from the x axis: :func:`pendtrack.kinematics.swing_centre_shift` of its turning angles).
+
+        Every model's physics needs theta = 0 hanging down; the ``offset`` term, judged on a physics fitted
+        about a zero 1.5 rad away, cannot show its worth. What remains of the zero is the offset's to judge.
+        """
+        shift = swing_centre_shift(turning_values(self.theta))
+        if shift == 0.0:
+            return self
+        return replace(self, theta=self.theta - shift, zero_shift=self.zero_shift + shift)
 
 
 def series_from_record(rec: Record) -> AngleSeries:

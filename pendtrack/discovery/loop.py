@@ -434,7 +434,7 @@ def discover(series: AngleSeries, *, config: Config, baseline: str | None = None
         meas_pool = C.measurement_candidates(baseline, tuple(dc.measurement if measurement is None else measurement))
     except ModelError as exc:
         raise ConfigError(str(exc)) from None
-    return DiscoveryLoop(series, config=config, baseline=baseline, pool=pool, meas_pool=meas_pool,
+    return DiscoveryLoop(series.centred(), config=config, baseline=baseline, pool=pool, meas_pool=meas_pool,
                          on_progress=on_progress).run()
 
 

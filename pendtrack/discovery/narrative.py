@@ -222,6 +222,11 @@ def write_markdown(result: DiscoveryResult) -> str:
                  f"({_f(r['data'].get('rate_hz'), '.4g')} Hz), analysed at {_f(an.get('rate_hz'), '.4g')} Hz; "
                  f"baseline model `{r['baseline']}`; training part t <= {_f(an.get('t_split'), '.1f')} s, "
                  f"held out after.")
+    shift = r["data"].get("zero_shift_rad") or 0.0
+    if shift:
+        lines.append(f"theta's zero: the file's angle swings about {_f(shift, '.4g')} rad, not hanging straight "
+                     "down (a sensor's or an axis' zero); every model is fitted about that centre, and the "
+                     "`offset` term judges what remains of the zero.")
     lines.append("")
     lines += ["## Verdict", ""]
     off = _off(ev)

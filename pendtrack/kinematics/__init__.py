@@ -12,7 +12,7 @@ implementations of these signal facts in pendtrack: discovery and report import 
 """
 
 from pendtrack.kinematics.analysis import (
-    Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
+    Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping, swing_centre_shift,
     negative_damping_flags, negative_damping_fraction, phase, phase_speed, turning_points,
 )
 from pendtrack.kinematics.differentiate import (
@@ -26,6 +26,7 @@ from pendtrack.kinematics.free_swing import Catch, Drive, Hold, Lift, find_catch
 
 __all__ = [
     "Omega0Estimate", "TurningPoints", "amplitudes", "delta_alpha", "estimate_omega0", "negative_damping",
+    "swing_centre_shift",
     "negative_damping_flags", "negative_damping_fraction", "phase", "phase_speed", "turning_points",
     "KinematicsError", "KinematicsResult", "savgol_kinematics", "savgol_uniform", "window_points", "InitialAnalysis", "analyse",
     "omega0_from_kinematics", "estimate_omega0_from_angle", "record_turning_points", "smoothing_moments",

@@ -238,7 +238,7 @@ def estimate_omega0(theta_ext: np.ndarray, alpha_ext: np.ndarray, *,
     """
     theta_ext = np.asarray(theta_ext, dtype=np.float64)
     alpha_ext = np.asarray(alpha_ext, dtype=np.float64)
-    theta_ext = theta_ext - _far_centre(theta_ext)
+    theta_ext = theta_ext - swing_centre_shift(theta_ext)
     est = _fit_through_origin(np.sin(theta_ext), alpha_ext)
     if sg_moments is None:
         return est
@@ -256,9 +256,9 @@ def estimate_omega0(theta_ext: np.ndarray, alpha_ext: np.ndarray, *,
     return est
 
 
-def _far_centre(theta_ext: np.ndarray) -> float:
-    """The centre of the swing [rad] when it is further than :data:`CENTRE_SHARE` of the swing's
-    amplitude from 0, else 0.
+def swing_centre_shift(theta_ext: Any) -> float:
+    """The centre of a swing's turning angles ``theta_ext`` [rad], in time order, when it is further
+    than :data:`CENTRE_SHARE` of the swing's amplitude from 0, else 0.
 
     An angle from another zero (a sensor's atan2, an angle from the x axis) swings about its centre
     ``c``, and eq. straightline holds for theta less it. Through the origin, turning angles ``c +- A``
@@ -268,7 +268,8 @@ def _far_centre(theta_ext: np.ndarray) -> float:
     angles do not agree on within 3 standard errors. The centre of three
     successive turning angles ``(a + 2 b + c) / 4`` cancels a steady decay; their median.
     """
-    th = theta_ext[np.isfinite(theta_ext)]
+    th = np.asarray(theta_ext, dtype=np.float64)
+    th = th[np.isfinite(th)]
     if th.size < 3:
         return 0.0
     centres = 0.25 * (th[:-2] + 2.0 * th[1:-1] + th[2:])

@@ -44,11 +44,11 @@ import numpy as np
 from pendtrack.config import KinematicsConfig
 from pendtrack.errors import PendtrackError
 from pendtrack.models.timegrid import check_time
+from pendtrack.tables.checks import MIN_HALF_PERIOD_SAMPLES, dominant_period, turning_points
 
 log = logging.getLogger(__name__)
 
 MAX_WINDOW_PERIOD_FRACTION = 0.25  # window <= this fraction of the oscillation period
-MIN_HALF_PERIOD_SAMPLES = 3  # turning points closer than this (median, in samples) are noise, not half swings
 UNIFORM_RTOL = 1e-9  # timestamps within this fraction of h of the grid count as on it
 
 
@@ -110,18 +110,6 @@ def window_points(window_s: float, h: float, order: int) -> int:
     return n
 
 
-def dominant_period(theta: np.ndarray, h: float) -> float:
-    """Period [s] of the strongest spectral peak of a uniformly sampled theta (inf if none)."""
-    x = np.asarray(theta, dtype=np.float64)
-    x = x - x.mean()
-    if x.size < 8 or not np.any(x):
-        return math.inf
-    spec = np.abs(np.fft.rfft(x * np.hanning(x.size)))
-    freqs = np.fft.rfftfreq(x.size, h)
-    k = int(np.argmax(spec[1:])) + 1
-    return math.inf if freqs[k] <= 0 else 1.0 / freqs[k]
-
-
 def swing_period(theta: np.ndarray, h: float) -> float:
     """The swing's period [s] of a uniformly sampled theta: its spectral peak (:func:`dominant_period`),
     or twice the median time between its turning points when that is under half the peak's period.
@@ -130,14 +118,12 @@ def swing_period(theta: np.ndarray, h: float) -> float:
     rig) has its spectral peak at the rest's step; its turning points (a zigzag with a tenth of the
     range as hysteresis, :func:`pendtrack.tables.checks.turning_points`) still space half periods.
     """
-    from pendtrack.tables.checks import turning_points
-
     period = dominant_period(theta, h)
     turns = turning_points(theta)
     if turns.size >= 2:
         half = float(np.median(np.diff(turns)))
         # turning points a few samples apart are the noise's, not a swing's (a micro:bit's angle whose
-        # sample-to-sample noise exceeds a tenth of its range, 1-2 samples apart): a swing is sampled 6 times a period
+        # sample-to-sample noise exceeds a tenth of its range, 1-3 samples apart): a swing is sampled 8 times a period
         if half >= MIN_HALF_PERIOD_SAMPLES and 2.0 * h * half < 0.5 * period:
             return 2.0 * h * half
     return period

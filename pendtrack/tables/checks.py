@@ -31,6 +31,7 @@ ZIGZAG_MAX_SAMPLES = 20000  # the turning-point search runs on at most this many
 PERIOD_RANGE_S = (0.1, 100.0)  # pendulum periods [s]: a 2.5 mm to a 2.5 km pendulum
 MAX_STEP_S = 10.0  # no pendulum record is sampled more than 10 s apart
 TIME_GUESSES = (("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9))
+MIN_HALF_PERIOD_SAMPLES = 4  # turning points closer than this (median, in samples) are the noise's zigzag, not half swings
 
 
 def turning_points(values: np.ndarray) -> np.ndarray:
@@ -63,6 +64,18 @@ def turning_points(values: np.ndarray) -> np.ndarray:
             out.append(k_ext)
             direction, ext, k_ext = -direction, val, k
     return where[np.asarray(out, np.int64)]
+
+
+def dominant_period(theta: np.ndarray, h: float) -> float:
+    """Period [s] of the strongest spectral peak of a uniformly sampled theta (inf if none)."""
+    x = np.asarray(theta, dtype=np.float64)
+    x = x - x.mean()
+    if x.size < 8 or not np.any(x):
+        return math.inf
+    spec = np.abs(np.fft.rfft(x * np.hanning(x.size)))
+    freqs = np.fft.rfftfreq(x.size, h)
+    k = int(np.argmax(spec[1:])) + 1
+    return math.inf if freqs[k] <= 0 else 1.0 / freqs[k]
 
 
 def turning_values(theta: np.ndarray) -> np.ndarray:
@@ -123,6 +136,8 @@ def time_not_seconds(t: np.ndarray, signal: np.ndarray) -> tuple[str, str] | Non
     lo, hi = PERIOD_RANGE_S
     if turns.size >= 3:
         value, what, plausible = 2.0 * float(np.median(np.diff(t[turns]))), "a swing period", (lo, hi)
+        if float(np.median(np.diff(turns))) < MIN_HALF_PERIOD_SAMPLES:  # the noise's zigzag: the spectrum's peak
+            value = dominant_period(np.asarray(signal, float), step)
         if value <= hi:
             return None
     elif step > MAX_STEP_S:

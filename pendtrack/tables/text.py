@@ -63,6 +63,7 @@ RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and
                "export the angle, or film the swing and run pendtrack on the video")
 RAGGED_SHARE = 0.9  # rows below a first row of another width that make it a line of settings (a ragged table's
                     # blank cells keep their separators, so its rows keep their count)
+FRAME_NAME_RE = re.compile(r"(frames?|frame ?(#|no\.?|number|nr\.?|index|_number|_no|_index))")  # a frame count
 MAX_SPELLED = 8  # a --columns hint spelled out in full up to this many columns (one line stays readable)
 
 
@@ -191,6 +192,20 @@ def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]
     return out
 
 
+def _frame_columns(preamble: list[tuple[int, str]]) -> dict[int, str]:
+    """Columns of the header (its last line) that count frames (``frame``, ``Frame #``, ``frame_number``):
+    index -> label. A tracker's ``frame,x,y`` numbers its rows; read as t [s], a 30 fps swing of 1.7 s
+    becomes one of 50 s, which no unit check can tell from a long pendulum's."""
+    if not preamble:
+        return {}
+    out = {}
+    for i, label in enumerate(header_fields(preamble[-1][1])):
+        name = label.strip().strip('"').strip()
+        if FRAME_NAME_RE.fullmatch(name.lower()):
+            out[i] = name
+    return out
+
+
 def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnName | None] | None:
     """The columns named by the preamble (see the module docstring); None without a preamble.
 
@@ -314,6 +329,13 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                               f"{body[0][0]}{groups}): add _ for each column to ignore")
         cols = [parse_column_name(n) for n in columns]
         where = "--columns"
+        frames = _frame_columns(preamble)
+        for i, c in enumerate(cols):
+            if c is not None and c.role == "t" and not c.unit and i in frames:
+                rest = ",".join("_" if j == i else columns[j] for j in range(width))
+                raise ConfigError(f"--columns names column {i + 1} t [s], but the header gives it as "
+                                  f"{frames[i]!r}: frame numbers, not seconds; give the frame rate instead: "
+                                  f"--columns {rest} --rate FPS")
         for i, c in enumerate(cols):
             if c is not None and c.role in ("theta", "x", "y") and i in rates:
                 raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as "
@@ -363,6 +385,13 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
     try:
         found = roles(cols, where)
     except ConfigError:
+        frames = _frame_columns(preamble) if where == "header" and rate_hz is None else {}
+        if frames and not any(c is not None and c.role == "t" for c in cols):
+            names = ",".join("_" if j in frames or cols[j] is None else cols[j].label  # type: ignore[union-attr]
+                             for j in range(len(cols)))
+            first = min(frames)
+            raise ConfigError(f"header: column {first + 1} {frames[first]!r} numbers the frames and no column "
+                              f"holds times: give the frame rate, --columns {names} --rate FPS") from None
         if where == "header" and rates and not any(c is not None and c.role in ("theta", "x", "y") for c in cols):
             names = ", ".join(repr(label) for label, _ in rates.values())
             raise ConfigError(f"header: the columns {names} are rates ({'; '.join(sorted({u for _, u in rates.values()}))}), "

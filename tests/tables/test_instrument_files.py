@@ -778,6 +778,36 @@ def test_unit_checks_without_turning_points():
     assert time_not_seconds(t, spin) is None
 
 
+def test_the_period_quoted_for_a_noisy_log_in_ms_is_the_swings():
+    # a micro:bit's log (ES2Spring2019-ComputinginEngineering/project-one-nick-and-david, real_pendulum_data1.txt:
+    # ms against a reading whose sample noise is half its swing, every 35 ms): the zigzag's turning points are
+    # 3 samples apart, and the refusal quoted "a swing period of 204"; the swing's is 1273 ms
+    from pendtrack.tables.checks import time_not_seconds
+
+    t_ms = 35.0 * np.arange(400)
+    reading = 80.0 * np.sin(2 * np.pi * t_ms / 1270.0) + np.random.default_rng(6).normal(0.0, 40.0, t_ms.size)
+    why, unit = time_not_seconds(t_ms, reading)
+    period = float(why.split("swing period of ")[1].split(",")[0])
+    # the spectrum of 14 s resolves 1/14 s^-1 about 0.79 Hz: 1.18-1.39 s
+    assert unit == "ms" and 1180.0 <= period <= 1390.0
+
+
+def test_a_trackers_frame_numbers_are_not_taken_for_seconds(tmp_path):
+    # an OpenCV tracker's `frame,x,y` (SamuelFoo/pendulum, data/pendulum_output2.csv, 30 fps): with the
+    # --columns t,x,y the missing-t error suggested, a 1.7-s swing read as one of 50 s (Omega0 0.124 rad/s)
+    k = np.arange(300)
+    x = 200.0 + 80.0 * np.sin(2 * np.pi * k / 50.5)
+    y = 400.0 - np.sqrt(300.0**2 - (x - 200.0) ** 2)
+    src = tmp_path / "track.csv"
+    src.write_text("frame,x,y\n" + "".join(f"{a:.1f},{b:.2f},{c:.2f}\n" for a, b, c in zip(k, x, y)))
+    with pytest.raises(ArtifactError, match=r"column 1 'frame' numbers the frames .*--columns _,x,y --rate FPS"):
+        read_record(src)
+    with pytest.raises(ArtifactError, match=r"'frame': frame numbers, not seconds.*--columns _,x,y --rate FPS"):
+        read_record(src, spec=TableSpec(columns=("t", "x", "y"), pivot=(200.0, 400.0)))
+    rec = read_record(src, spec=TableSpec(columns=("_", "x", "y"), rate_hz=30.0, pivot=(200.0, 400.0)))
+    np.testing.assert_allclose(rec.t, k / 30.0, atol=1e-12)
+
+
 def test_a_release_from_rest_that_travels_beyond_a_turn_is_degrees():
     from pendtrack.tables.checks import theta_not_radians
 
