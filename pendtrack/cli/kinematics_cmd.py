@@ -86,5 +86,7 @@ def kinematics(angle_file: str, savgol_window_s: float | None, savgol_order: int
           if f.get("Omega0") is not None else f"no Omega0 ({f.get('Omega0_reason')})")
     neg = f.get("negative_damping_fraction")
     neg_text = f", negative damping {100 * neg:.1f} % of samples" if neg is not None else ""
+    centre = f.get("theta_centre") or 0.0
+    centre_text = f", swinging about {centre:.4g} rad (amplitudes and energy taken about it)" if centre else ""
     click.echo(f"{res.path}: {f['n_segments']} segment(s), window {f['window_points']} points "
-               f"({f['window_s']:.4f} s), {w0}{neg_text}")
+               f"({f['window_s']:.4f} s), {w0}{centre_text}{neg_text}")

@@ -286,16 +286,41 @@ def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
     A point is an outlier when its residual is more than :data:`OUTLIER_MADS` scaled MADs
     from the residuals' median (not from 0: residuals that share an offset, e.g. from a
     zero of theta off the rest position, are not outliers). Rejection never leaves fewer
-    than :data:`MIN_TURNING_POINTS` points.
+    than :data:`MIN_TURNING_POINTS` points. When the points kept lie within :data:`MIN_SPAN` of
+    the reach (a rest's turning points of the noise set the slope), the turning points beyond
+    :data:`MIN_SPAN` of the reach alone are fitted; FitError if they do not agree either.
     """
     finite = np.isfinite(x) & np.isfinite(y)
-    use = finite
     n_total = int(x.size)
-    if use.sum() < MIN_TURNING_POINTS:
-        why = f", {n_total - int(use.sum())} of them not finite" if n_total > use.sum() else ""
-        raise FitError(f"only {int(use.sum())} usable turning points ({n_total} omega = 0 crossings found{why}): "
+    if finite.sum() < MIN_TURNING_POINTS:
+        why = f", {n_total - int(finite.sum())} of them not finite" if n_total > finite.sum() else ""
+        raise FitError(f"only {int(finite.sum())} usable turning points ({n_total} omega = 0 crossings found{why}): "
                        f"need at least {MIN_TURNING_POINTS} to estimate Omega0 by eq. straightline "
                        "(does the record hold one and a half oscillations?)")
+    try:
+        return _slope_through_origin(x, y, finite)
+    except _RestSetsTheSlope as exc:
+        # a record that ends at rest (a swing that fades by dry friction, then seconds of still bob): the rest's
+        # many turning points of the noise agree on a slope of their own and the swings' are rejected as
+        # outliers from it. The swings above half the reach, alone, set the slope; when even they do not agree
+        # on one, the record is refused as before
+        large = finite & (np.abs(x) >= MIN_SPAN * float(np.max(np.abs(x[finite]))))
+        if large.sum() < MIN_TURNING_POINTS:
+            raise FitError(str(exc)) from None
+        try:
+            return _slope_through_origin(x, y, large)
+        except _RestSetsTheSlope:
+            raise FitError(str(exc)) from None
+
+
+class _RestSetsTheSlope(FitError):
+    """The turning points that agree on a slope lie within :data:`MIN_SPAN` of the swing's reach."""
+
+
+def _slope_through_origin(x: np.ndarray, y: np.ndarray, finite: np.ndarray) -> Omega0Estimate:
+    """:func:`_fit_through_origin` on the points ``finite`` (at least :data:`MIN_TURNING_POINTS`)."""
+    use = finite
+    n_total = int(x.size)
     for _ in range(10):
         xs, ys = x[use], y[use]
         sxx = float(np.dot(xs, xs))
@@ -311,10 +336,10 @@ def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
         use = new
     reach = float(np.max(np.abs(x[finite])))
     if float(np.max(np.abs(x[use]))) < MIN_SPAN * reach:
-        raise FitError(f"the turning points that agree on a slope lie within "
-                       f"{math.asin(min(1.0, float(np.max(np.abs(x[use]))))):.3g} rad of theta = 0, while the "
-                       f"swing reaches {math.asin(min(1.0, reach)):.3g} rad: too few swings above the noise to "
-                       "estimate Omega0 (does the record come to rest after a few swings?)")
+        raise _RestSetsTheSlope(f"the turning points that agree on a slope lie within "
+                                f"{math.asin(min(1.0, float(np.max(np.abs(x[use]))))):.3g} rad of theta = 0, while "
+                                f"the swing reaches {math.asin(min(1.0, reach)):.3g} rad: too few swings above the "
+                                "noise to estimate Omega0 (does the record come to rest after a few swings?)")
     if k >= 0.0:
         raise FitError(f"alpha at the turning points does not oppose sin(theta) (slope {k:.3g} >= 0): "
                        "no restoring torque, cannot estimate Omega0")

@@ -59,8 +59,10 @@ from typing import Any
 
 import numpy as np
 
+from pendtrack.kinematics.analysis import swing_centre_shift
 from pendtrack.kinematics.differentiate import KinematicsError, dominant_period
 from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, MIN_REST_SAMPLES, departure, leading_rest, smallest_step
+from pendtrack.tables.checks import turning_values
 
 log = logging.getLogger(__name__)
 
@@ -277,6 +279,10 @@ def find_lift(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Lift | None:
     period = dominant_period(th, h)
     if not math.isfinite(period) or tt[-1] - tt[0] < LIFT_MIN_PERIODS * period:
         return None
+    # "away from the bottom" is away from the swing's centre when the angle's zero is far from it (a tilted camera,
+    # a sensor's zero): a free swing starting on its way out from a turning point off zero is no lift
+    centre = swing_centre_shift(turning_values(th))
+    th = th - centre
     m = max(MIN_REST_SAMPLES, int(LIFT_FIT_PERIODS * period / h))
     quad = np.polyfit(tt[:m] - tt[0], th[:m], 2)
     theta0, omega0 = float(quad[2]), float(quad[1])
@@ -298,7 +304,7 @@ def find_lift(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Lift | None:
     e_turn = w2 * (1.0 - math.cos(float(th[k])))
     if not e_turn > (1.0 + LIFT_RISE) * e_start:
         return None
-    return Lift(n=int(idx[k]), release_s=float(tt[k]), theta_r=float(th[k]), energy_rise=e_turn / e_start - 1.0)
+    return Lift(n=int(idx[k]), release_s=float(tt[k]), theta_r=float(th[k] + centre), energy_rise=e_turn / e_start - 1.0)
 
 
 def find_drive(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Drive | None:

@@ -13,7 +13,7 @@ from pendtrack.config import KinematicsConfig
 from pendtrack.errors import FitError
 from pendtrack.kinematics.analysis import (
     Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
-    negative_damping_fraction, phase, phase_speed, savgol_bias_moments, turning_points,
+    negative_damping_fraction, phase, phase_speed, savgol_bias_moments, swing_centre_shift, turning_points,
 )
 from pendtrack.kinematics.differentiate import KinematicsResult, savgol_kinematics
 
@@ -36,6 +36,9 @@ class InitialAnalysis:
         Fraction of usable samples with negative damping (NaN without Omega0).
     reason : str
         Empty, or why Omega0 could not be estimated.
+    centre : float
+        The angle the columns are taken about [rad]: the swing's centre when the record's zero is far from
+        it (:func:`swing_centre_shift`: a sensor's or an axis' zero), else 0.
     """
 
     omega0: Omega0Estimate | None
@@ -43,12 +46,14 @@ class InitialAnalysis:
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     negative_damping_fraction: float = math.nan
     reason: str = ""
+    centre: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return {"omega0": None if self.omega0 is None else self.omega0.to_dict(),
                 "turning": self.turning.to_dict(),
                 "columns": {k: v.tolist() for k, v in self.columns.items()},
-                "negative_damping_fraction": self.negative_damping_fraction, "reason": self.reason}
+                "negative_damping_fraction": self.negative_damping_fraction, "reason": self.reason,
+                "centre": self.centre}
 
 
 def record_turning_points(kin: KinematicsResult) -> TurningPoints:
@@ -127,16 +132,20 @@ def analyse(kin: KinematicsResult, *, omega0: float | None = None, correct_smoot
     w0 = omega0 if omega0 is not None else (None if est is None else est.omega0)
     if w0 is None:
         return InitialAnalysis(omega0=None, turning=tp, reason=reason)
-    a_th, a_om, energy = amplitudes(kin.theta, kin.omega, w0)
-    neg = negative_damping(kin.theta, kin.omega, kin.alpha, w0)
+    # amplitudes, energy, phase and delta_alpha are about the hanging position: the swing's centre, as Omega0's
+    # estimate takes it, when the record's zero is not there
+    centre = swing_centre_shift(tp.theta)
+    theta = kin.theta - centre
+    a_th, a_om, energy = amplitudes(theta, kin.omega, w0)
+    neg = negative_damping(theta, kin.omega, kin.alpha, w0)
     cols = {
         "A_theta": a_th,
         "A_omega": a_om,
         "energy": energy,
-        "phase": phase(kin.theta, kin.omega, w0, kin.segment),
-        "phase_speed": phase_speed(kin.theta, kin.omega, kin.alpha, w0),
-        "delta_alpha": delta_alpha(kin.theta, kin.alpha, w0),
+        "phase": phase(theta, kin.omega, w0, kin.segment),
+        "phase_speed": phase_speed(theta, kin.omega, kin.alpha, w0),
+        "delta_alpha": delta_alpha(theta, kin.alpha, w0),
         "negative_damping": neg & kin.ok,
     }
-    return InitialAnalysis(omega0=est, turning=tp, columns=cols,
+    return InitialAnalysis(omega0=est, turning=tp, columns=cols, centre=centre,
                            negative_damping_fraction=negative_damping_fraction(neg, kin.ok), reason=reason)

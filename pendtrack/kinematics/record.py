@@ -33,7 +33,8 @@ class KinematicsTable:
         t [s], theta [rad], omega [rad/s], alpha [rad/s^2], ok, segment, and the analysis
         columns when Omega0 could be estimated (A_theta, A_omega, energy, phase, ...).
     facts : dict
-        Omega0, Omega0_stderr, Omega0_raw [rad/s], Omega0_reason, n_turning_points,
+        Omega0, Omega0_stderr, Omega0_raw [rad/s], Omega0_reason, theta_centre [rad] (the angle the
+        analysis columns are taken about: the swing's centre when the zero is far from it, else 0), n_turning_points,
         negative_damping_fraction, ok_fraction and the differentiation facts (``kin.info``).
     """
 
@@ -105,6 +106,7 @@ def kinematics_table(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, option
         "Omega0_stderr": None if ana.omega0 is None else ana.omega0.stderr,
         "Omega0_raw": None if raw is None else raw.omega0,
         "Omega0_reason": ana.reason,
+        "theta_centre": ana.centre,
         "n_turning_points": len(ana.turning),
         "negative_damping_fraction": None if math.isnan(ana.negative_damping_fraction)
         else ana.negative_damping_fraction,

@@ -1,9 +1,13 @@
 """Time stamps: real sample times onto the uniform grid the kinematics and the fits work on.
 
 Every strictly increasing set of times is used; only non-finite, repeated or decreasing
-times are errors (by the caller). Three cases, decided by :func:`uniform_grid`:
+times are errors (by the caller). Four cases, decided by :func:`time_layout`:
 
-* **on a grid** (every time within :data:`GRID_RTOL` of a step of one): kept as it is;
+* **on a grid** (every time within :data:`GRID_RTOL` of a step of the grid of the median spacing): kept
+  as it is;
+* **rounded** (every time within :data:`GRID_RTOL` of a step of the least-squares grid, not of the
+  median spacing's: times written with too few decimals, 0.03333 for 1/30 s, whose rounded spacing
+  drifts off the grid over the record): each row's time is its grid point's (the rows and angles stay);
 * **jittered** (every sample within :data:`JITTER_MAX_STEPS` of a step of the least-squares
   grid, e.g. a phone's time stamps): each sample is moved to its grid point, theta taken
   there from a cubic spline through its run of usable samples (the rows stay the rows);
@@ -66,7 +70,8 @@ class Grid:
 
 
 def time_layout(t: np.ndarray) -> tuple[str, Grid | None]:
-    """``("grid", None)``, ``("jittered", grid)`` or ``("irregular", None)``: how times sit on a uniform grid.
+    """``("grid", None)``, ``("rounded", grid)``, ``("jittered", grid)`` or ``("irregular", None)``: how times
+    sit on a uniform grid (module docstring).
 
     Parameters
     ----------
@@ -88,17 +93,16 @@ def time_layout(t: np.ndarray) -> tuple[str, Grid | None]:
     step, origin = np.polyfit(index.astype(float), t, 1)
     offset = (t - origin - step * index) / step
     worst = float(np.max(np.abs(offset)))
-    if worst <= GRID_RTOL:
-        return "grid", None
     if worst > JITTER_MAX_STEPS:
         return "irregular", None
-    return "jittered", Grid(origin=float(origin), step=float(step), index=index, max_offset=worst,
+    return "rounded" if worst <= GRID_RTOL else "jittered", Grid(origin=float(origin), step=float(step), index=index, max_offset=worst,
                             rms_offset=float(np.sqrt(np.mean(offset ** 2))))
 
 
 def uniform_grid(t: np.ndarray) -> Grid | None:
     """The least-squares uniform grid of jittered times (:func:`time_layout`), else None."""
-    return time_layout(t)[1]
+    layout, grid = time_layout(t)
+    return grid if layout == "jittered" else None
 
 
 def fourth_derivative_bound(t: np.ndarray, theta: np.ndarray) -> tuple[float | None, dict[str, Any]]:

@@ -107,6 +107,8 @@ class Record:
     info : dict
         How it was read, for the provenance: ``kind``, ``columns`` (as understood),
         ``pivot`` (x, y tables), ``resampled`` (None, or the grid, method and error bound),
+        ``times_rounded`` (None, or the grid step [s] and the largest offset [steps] of times written
+        with too few decimals, now on it),
         ``tracker`` (a .trk project's track, frames and clip), ``warnings``.
     """
 
@@ -238,6 +240,7 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
     _check_times(t, path, unit=raw.get("t_unit"))
     _check_units(raw, path)
     info: dict[str, Any] = {"kind": raw["kind"], "columns": raw["labels"], "pivot": None, "resampled": None,
+                            "times_rounded": None,
                             "warnings": []}
     if retimed is not None:
         info["retimed"] = retimed.describe()
@@ -266,7 +269,13 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
     ok = ok & np.isfinite(theta)
     columns: dict[str, np.ndarray] = raw["columns"]
     layout, grid = time_layout(t)
-    if layout == "jittered":
+    if layout == "rounded":  # times written with too few decimals: each row at its grid point
+        assert grid is not None
+        t = grid.origin + grid.step * grid.index.astype(np.float64)
+        info["times_rounded"] = {"step_s": grid.step, "max_offset_steps": grid.max_offset}
+        log.info("%s: time stamps rounded off a uniform grid of %.9g s (by up to %.2g of a step): taken at the "
+                 "grid's times", path, grid.step, grid.max_offset)
+    elif layout == "jittered":
         assert grid is not None
         theta, columns, t, info["resampled"] = resample_jittered(t, theta, ok, columns, grid)
     elif layout == "irregular":
@@ -446,6 +455,41 @@ SIDEWAYS_RAD = math.pi / 4  # positions whose swing is centred this far from str
 # the other way, refused below) have gravity along x
 
 
+def _column_names(raw: dict[str, Any], spec: TableSpec) -> tuple[str, ...] | None:
+    """The table's columns as ``--columns`` names: the user's, else the header's roles (with their units);
+    None for a table without them (a Tracker project)."""
+    if spec.columns:
+        return tuple(spec.columns)
+    cols = [c for c in raw.get("cols") or [] if c is None or not c.from_rate]
+    if not cols:
+        return None
+    names = []
+    for c in cols:
+        role = "_" if c is None else "y_down" if c.role == "y" and c.y_down else c.role
+        names.append(role + (f"[{c.unit}]" if c is not None and c.unit and role != "_" else ""))
+    return tuple(names)
+
+
+def _swap_y(columns: tuple[str, ...], vertical: str) -> str:
+    """``columns`` with the y column named ``vertical`` (y or y_down), units and the other columns kept."""
+    out = []
+    for name in columns:
+        base, bracket, unit = name.partition("[")
+        out.append((vertical if base.strip() in ("y", "y_down") else base) + bracket + unit)
+    return ",".join(out)
+
+
+def _swap_xy(columns: tuple[str, ...], vertical: str) -> str:
+    """``columns`` (--columns' names) with x and y's roles swapped, the old x named ``vertical`` (y or y_down);
+    units and the other columns kept."""
+    out = []
+    for name in columns:
+        base, bracket, unit = name.partition("[")
+        role = {"x": vertical, "y": "x", "y_down": "x"}.get(base.strip(), base)
+        out.append(role + bracket + unit)
+    return ",".join(out)
+
+
 def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_fit: PivotFit | None,
                    info: dict[str, Any], path: Path) -> np.ndarray:
     x, y, y_down = raw["x"], raw["y"], raw["y_down"]
@@ -462,11 +506,13 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
     ext = turning_values(theta[usable])
     centre = float(np.median(0.5 * (ext[1:] + ext[:-1]))) if ext.size >= 3 else 0.0
     if SIDEWAYS_RAD < abs(centre) < math.pi - SIDEWAYS_RAD:  # gravity along x: the angle's zero would mean nothing
+        names = _column_names(raw, spec)
+        up, down = (_swap_xy(names, v) for v in ("y", "y_down")) if names else ("t,y,x", "t,y_down,x")
         raise ArtifactError(f"the bob swings about a direction {math.degrees(centre):.0f} degrees from straight down "
                             f"(y {'down' if y_down else 'up'}, pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) from the "
                             "positions): the vertical is not the y column; if the camera was turned or the columns are "
-                            "swapped, name them so that y is the vertical (e.g. --columns t,y,x or t,y_down,x for the "
-                            "file's second and third columns)", path=path)
+                            f"swapped, name them so that y is the vertical (e.g. --columns {up} or {down}"
+                            + ("" if names else " for the file's second and third columns") + ")", path=path)
     below = (y[usable] - pivot[1]) * (1.0 if y_down else -1.0)
     if below.size and np.median(below) < 0:
         axis, other = ("down", "y") if y_down else ("up", "y_down")
@@ -474,8 +520,10 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
             raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples (a "
                                 "Tracker track's y points up): give the pivot with --pivot X Y in the track's units, "
                                 "or choose the bob's track with --track", path=path)
+        names = _column_names(raw, spec)
+        example = _swap_y(names, other) if names else f"t,x,{other}"
         raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples with y "
                             f"{axis}: if the y axis points the other way, name the column {other} (e.g. "
-                            f"--columns t,x,{other})", path=path)
+                            f"--columns {example})", path=path)
     info["pivot"] = {"x": pivot[0], "y": pivot[1], "y_axis": "down" if y_down else "up", **facts}
     return theta

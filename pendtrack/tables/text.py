@@ -206,6 +206,19 @@ def _frame_columns(preamble: list[tuple[int, str]]) -> dict[int, str]:
     return out
 
 
+def _header_time_names(preamble: list[tuple[int, str]], shape_line: str, sep: str | None, frames: dict[int, str], *,
+                       y_down: bool) -> tuple[int, str] | None:
+    """The header's own time column (not a frame count) and ``--columns`` names after the header's roles
+    (``y_down`` for its y when the user's names point y down), or None when the header names no time."""
+    cols = _header(preamble, group_sizes(shape_line, sep)) or []
+    where = [i for i, c in enumerate(cols) if c is not None and c.role == "t" and i not in frames]
+    if not where:
+        return None
+    names = ["_" if c is None or c.role == "_" or i in frames else
+             ("y_down" if c.role == "y" and (y_down or c.y_down) else c.role) for i, c in enumerate(cols)]
+    return where[0], ",".join(names)
+
+
 def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnName | None] | None:
     """The columns named by the preamble (see the module docstring); None without a preamble.
 
@@ -320,6 +333,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                           "columns); for a log of angles written at a fixed rate, give it with --rate HZ "
                           "(row k at t = k / rate), and the angle's unit with --columns (e.g. theta[deg])")
     rates = _rate_columns(preamble)
+    short_header = 0  # the number of columns a header shorter than the rows names, else 0
     if columns is not None:
         if body and len(columns) != width:
             sizes = group_sizes(shape_line, sep)
@@ -333,9 +347,13 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         for i, c in enumerate(cols):
             if c is not None and c.role == "t" and not c.unit and i in frames:
                 rest = ",".join("_" if j == i else columns[j] for j in range(width))
+                timed = _header_time_names(preamble, shape_line, sep, frames, y_down=any(
+                    n is not None and n.y_down for n in cols))
+                instead = (f"the header's column {timed[0] + 1} holds the times: name the columns after it "
+                           f"(e.g. --columns {timed[1]}) or give the frame rate: --columns {rest} --rate FPS"
+                           if timed else f"give the frame rate instead: --columns {rest} --rate FPS")
                 raise ConfigError(f"--columns names column {i + 1} t [s], but the header gives it as "
-                                  f"{frames[i]!r}: frame numbers, not seconds; give the frame rate instead: "
-                                  f"--columns {rest} --rate FPS")
+                                  f"{frames[i]!r}: frame numbers, not seconds; {instead}")
         for i, c in enumerate(cols):
             if c is not None and c.role in ("theta", "x", "y") and i in rates:
                 raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as "
@@ -377,6 +395,9 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                 raise ConfigError(f"{width} columns and no header: say what they are with --columns; {hint}")
             cols_or_none = ([ColumnName("theta", label="theta")] if rate_hz is not None else
                             [ColumnName("t", label="t"), ColumnName("theta", label="theta")])
+        elif len(cols_or_none) < width:  # a header shorter than its rows: the rows' columns it does not name
+            short_header = len(cols_or_none)
+            cols_or_none = [*cols_or_none, *[None] * (width - len(cols_or_none))]
         cols = cols_or_none
     if where == "header":
         cols = _without_polar_angle(cols, body, sep, comma)
@@ -384,7 +405,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         cols = _rate_times(cols, rate_hz)
     try:
         found = roles(cols, where)
-    except ConfigError:
+    except ConfigError as exc:
         frames = _frame_columns(preamble) if where == "header" and rate_hz is None else {}
         if frames and not any(c is not None and c.role == "t" for c in cols):
             names = ",".join("_" if j in frames or cols[j] is None else cols[j].label  # type: ignore[union-attr]
@@ -396,6 +417,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
             names = ", ".join(repr(label) for label, _ in rates.values())
             raise ConfigError(f"header: the columns {names} are rates ({'; '.join(sorted({u for _, u in rates.values()}))}), "
                               f"not an angle or positions: {RATE_ADVICE}") from None
+        if short_header:
+            raise ConfigError(f"{exc}; the header names {short_header} columns, the rows hold {width}") from None
         raise
     order = sorted(found.items(), key=lambda kv: kv[1])
     data = np.full((len(body), len(order)), np.nan)

@@ -227,6 +227,49 @@ def test_omega0_of_a_swing_about_another_zero_is_the_swing_about_its_own(centre:
     assert abs(about_zero.omega0 - 4.0) < 4 * about_zero.stderr
 
 
+def test_analysis_columns_of_a_swing_about_another_zero_are_the_swing_about_its_own() -> None:
+    # an angle from the x axis (zero 1.49 rad from hanging): A_theta, the energy and the negative damping are
+    # about the hanging position, as they are for the same swing measured from it
+    t = np.arange(0.0, 30.0, 1.0 / FPS)
+    rng = np.random.default_rng(7)
+    theta = 0.3 * np.exp(-0.02 * t) * np.cos(4.0 * t) + rng.normal(0.0, 0.002, t.size)
+    ok = np.ones(t.size, dtype=bool)
+    kin0 = savgol_kinematics(t, theta, ok, window_s=0.1, order=3)
+    kin1 = savgol_kinematics(t, theta + 1.49, ok, window_s=0.1, order=3)
+    about_zero, shifted = analyse(kin0), analyse(kin1)
+    assert about_zero.centre == 0.0
+    # the centre from ~240 turning angles of 2-mrad noise (after the filter well under 1 mrad): 1.49 within 1 mrad
+    assert shifted.centre == pytest.approx(1.49, abs=1e-3)
+    ok_rows = kin0.ok & kin1.ok
+    # a 1-mrad centre error moves sin(theta/2) by at most 0.5 mrad and the energy by a like share of A^2
+    for name in ("A_theta", "energy"):
+        a, b = about_zero.columns[name][ok_rows], shifted.columns[name][ok_rows]
+        assert np.max(np.abs(a - b)) < 1e-3 * max(1.0, float(np.max(np.abs(a)))), name
+    # the file's zero would make a 1.6-rad "amplitude" of a 0.3-rad swing
+    assert np.median(shifted.columns["A_theta"][ok_rows]) < 0.2
+    assert shifted.negative_damping_fraction == pytest.approx(about_zero.negative_damping_fraction, abs=0.02)
+
+
+def test_omega0_of_a_swing_that_ends_in_seconds_at_rest_is_the_swings() -> None:
+    # a potentiometer's log (Christophori/ME_3300_Engineering_Measurement_Systems, Lab_03: 1 kHz, 20 half swings
+    # fading by dry friction from 72 degrees, then 9 s still): the rest's 300 turning points of the noise agree on
+    # a slope of their own, the swings' were rejected from it as outliers, and the record was refused as "too few
+    # swings above the noise"
+    rng = np.random.default_rng(11)
+    amp = np.linspace(1.26, 0.04, 20)  # dry friction: the amplitude falls by the same step each half swing
+    th_swing = amp * np.where(np.arange(20) % 2 == 0, 1.0, -1.0)
+    # alpha at the swings' turning points: the pendulum's, plus 1 % scatter (the filter's bias, friction)
+    al_swing = -7.3 ** 2 * np.sin(th_swing) * (1.0 + rng.normal(0.0, 0.01, 20))
+    th_rest = rng.normal(0.0, 2e-4, 300)  # the still bob's zigzag after the filter
+    al_rest = rng.normal(0.0, 2e-3, 300)
+    est = estimate_omega0(np.r_[th_swing, th_rest], np.r_[al_swing, al_rest])
+    # the swings alone: 1 % scatter on ~10 points beyond half the reach gives a standard error near 0.2 % of Omega0
+    assert abs(est.omega0 - 7.3) < 4 * est.stderr and est.stderr < 0.01 * 7.3
+    # a rest alone, or swings that do not agree on a slope, stay refused
+    with pytest.raises(FitError, match="too few swings above the noise"):
+        estimate_omega0(np.r_[th_swing[:2], th_rest], np.r_[al_swing[:2], al_rest])
+
+
 def test_omega0_outliers_are_judged_from_the_median_residual() -> None:
     # issue #15 item 3: residuals that share an offset (alpha biased by a constant, as when theta's
     # zero is off the rest position) are not outliers; comparing |r| with the MAD dropped 13 of 14

@@ -808,6 +808,36 @@ def test_a_trackers_frame_numbers_are_not_taken_for_seconds(tmp_path):
     np.testing.assert_allclose(rec.t, k / 30.0, atol=1e-12)
 
 
+def test_a_trackers_frame_and_time_columns_are_named_after_the_header(tmp_path):
+    # an OpenCV tracker's `frame,tempo,x,y` in image pixels (mohamedcansiz-jpg/Pendulo, dados_pendulo.csv: y counts
+    # downwards): the y-direction error suggested `--columns t,x,y_down`, three names for four columns, and with
+    # `--columns t,x,y_down,_` the frame error suggested `_,x,y_down,_ --rate FPS`, which names tempo x and x y
+    k = np.arange(1, 301)
+    x = 200.0 + 80.0 * np.sin(2 * np.pi * k / 50.5)
+    y = 100.0 + np.sqrt(300.0**2 - (x - 200.0) ** 2)  # below the pivot (200, 100) in image rows
+    src = tmp_path / "dados.csv"
+    src.write_text("frame,tempo,x,y\n" + "".join(f"{a},{a / 30.0!r},{b:.0f},{c:.0f}\n" for a, b, c in zip(k, x, y)))
+    with pytest.raises(ArtifactError, match=r"name the column y_down \(e.g. --columns _,t,x,y_down\)"):
+        read_record(src, spec=TableSpec(pivot=(200.0, 100.0)))
+    with pytest.raises(ArtifactError, match=r"the header's column 2 holds the times: name the columns after it "
+                                            r"\(e.g. --columns _,t,x,y_down\)"):
+        read_record(src, spec=TableSpec(columns=("t", "x", "y_down", "_"), pivot=(200.0, 100.0)))
+    rec = read_record(src, spec=TableSpec(columns=("_", "t", "x", "y_down"), pivot=(200.0, 100.0)))
+    assert rec.t.size == k.size and np.all(np.abs(rec.theta) < 0.3)
+
+
+def test_a_header_shorter_than_its_rows_is_said_and_counted(tmp_path):
+    # a potentiometer's logger (Christophori/ME_3300_Engineering_Measurement_Systems, Lab_03's CSVs): two names,
+    # `Times (s),Voltage (Volts)`, over rows of three values (t, the angle in degrees, an acceleration); the error
+    # suggested `--columns t,theta`, refused next for naming 2 of 3 columns
+    t = np.arange(600) / 100.0
+    src = tmp_path / "expt.csv"
+    src.write_text("Times (s),Voltage (Volts)\n" + "".join(f"{a:.6f},{30 * math.cos(5 * a):.6f},0.1\n" for a in t))
+    with pytest.raises(ArtifactError, match=r"--columns t,theta,_ or --columns t,x,y; "
+                                          r"the header names 2 columns, the rows hold 3"):
+        read_record(src)
+
+
 def test_a_release_from_rest_that_travels_beyond_a_turn_is_degrees():
     from pendtrack.tables.checks import theta_not_radians
 

@@ -550,6 +550,29 @@ def test_kinematics_then_fit_on_phone_timestamps(tmp_path, fast_fit):
     assert prov["config"]["input"]["resampled"]["method"].startswith("cubic")
 
 
+def test_times_written_with_too_few_decimals_are_taken_on_their_grid(tmp_path, fast_fit):
+    """Found on mohamedcansiz-jpg/Pendulo@699ef7c (an OpenCV tracker's 30-fps table, times to 5 decimals): 0.03333
+    for 1/30 s drifts 3.3 us a row off the median spacing's grid, 0.003 s (9 % of a step) after 900 rows, and the
+    fit refused the record as "not on a uniform grid". Each time is within half a unit of its last decimal (5 us,
+    1.5e-4 of a step) of the least-squares grid: the rows are taken there."""
+    t = np.arange(900) / 30.0
+    theta = 0.165 * np.cos(3.7 * t)
+    src = tmp_path / "tracker.csv"
+    src.write_text("t,theta\n" + "".join(f"{a:.5f},{b:.5f}\n" for a, b in zip(t, theta)))
+    rec = read_input(src)
+    assert rec.info["times_rounded"] is not None and rec.info["times_rounded"]["max_offset_steps"] < 2e-4
+    assert rec.info["resampled"] is None  # the angles are the file's, not interpolated
+    # the times are the grid's: 1/30 s to the least-squares step's accuracy (5 us over 900 rows, ~1e-8 s)
+    np.testing.assert_allclose(rec.t, t, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(rec.theta, np.round(theta, 5))
+    res = invoke("fit", str(src), "--model", "standard", "--config", str(fast_fit), "--out", str(tmp_path / "f"), "-q")
+    assert res.exit_code == 0, res.output
+    fit = json.loads((tmp_path / "f" / "fit.json").read_text())
+    # a 0.165-rad swing at 3.7 rad/s is a pendulum of Omega0 = 3.7 / (1 - A^2/16) (next term 11 A^4/3072, 3e-6);
+    # the angle was written to 5 decimals (2.9e-6 rad rms): within 1e-4
+    assert fit["params"]["Omega0"]["value"] == pytest.approx(3.7 / (1 - 0.165 ** 2 / 16), rel=1e-4)
+
+
 def test_gaps_stay_gaps():
     t = np.arange(600) / RATE
     t = np.delete(t, np.arange(200, 230))  # half a second missing
@@ -583,6 +606,10 @@ def test_positions_from_a_turned_camera_are_refused_naming_the_columns(tmp_path)
     res = invoke("kinematics", str(src), "--columns", "t,x,y", "--out", str(tmp_path / "out"))
     _one_line_error(res, "the vertical is not the y column")
     assert "--columns t,y,x or t,y_down,x" in res.output and not (tmp_path / "out").exists()
+    # the suggestion swaps the roles in the user's own names: a skipped time column and units stay where they are
+    res = invoke("kinematics", str(src), "--columns", "_,x[cm],y[cm]", "--rate", "120", "--out", str(tmp_path / "out"))
+    _one_line_error(res, "the vertical is not the y column")
+    assert "--columns _,y[cm],x[cm] or _,y_down[cm],x[cm]" in res.output and not (tmp_path / "out").exists()
     rec = read_input(src, table=TableSpec(columns=parse_columns("t,y_down,x", check_roles=False)))
     # y_down = PY - Y points down, x = X - PX: the plain record's angle about the fitted pivot (exact data)
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
