@@ -23,7 +23,8 @@ times are errors (by the caller). Four cases, decided by :func:`time_layout`:
   time is when the bob crossed the edge between two counts. Its rows are taken at that edge
   (:func:`at_count_edges`: half a count back against the motion, the same angle whichever way the
   bob crossed it) and only a spacing over which the count moved more than
-  :data:`CHANGE_GAP_COUNTS` counts (changes the logger missed) is a gap.
+  :data:`CHANGE_GAP_COUNTS` counts (changes the logger missed), or longer than a period
+  (:func:`dwell_gaps`: no swinging bob dwells so long within a count), is a gap.
 
 Cubic rather than linear: a pendulum record has tens of samples per period, where a cubic's
 error (order h^4) is far below the tracking noise while linear interpolation flattens every
@@ -183,6 +184,27 @@ def at_count_edges(theta: np.ndarray, ok: np.ndarray, count: float) -> tuple[np.
     with np.errstate(invalid="ignore"):
         gap_after = np.abs(step) > (CHANGE_GAP_COUNTS + 0.5) * count
     return edge, ok, gap_after
+
+
+def dwell_gaps(t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, float]:
+    """A change-driven log's spacings too long for a dwell within one count, and that limit [s].
+
+    A bob that swings across a count's edge at all crosses one at least once a period (at the edge
+    nearest its centre), so a spacing longer than a period is a bob at rest within a count, or a logger
+    that paused, about which a spline through the rows either side would invent a swing (over 30 s
+    without a row, a cubic's bump of 10 rad). The period is twice the median spacing of the rows'
+    turning points (:func:`turning_points`); without three of them no spacing is judged so (limit inf).
+
+    Returns
+    -------
+    gap_after : ndarray of bool, shape (n - 1,)
+    limit : float
+    """
+    t = np.asarray(t, dtype=float)
+    turns = turning_points(theta)
+    limit = 2.0 * float(np.median(np.diff(t[turns]))) if turns.size >= 3 else math.inf
+    with np.errstate(invalid="ignore"):
+        return np.diff(t) > limit, limit
 
 
 def _runs(t: np.ndarray, ok: np.ndarray, gap: float, gap_after: np.ndarray | None = None) -> list[np.ndarray]:

@@ -18,7 +18,7 @@ from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.gitlfs import is_lfs_pointer, lfs_message
 from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds, turning_values
 from pendtrack.tables.rounded_times import retime_rounded
-from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, resample_irregular,
+from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, dwell_gaps, resample_irregular,
                                    resample_jittered, time_layout)
 from pendtrack.tables.text import raw_record, read_text
 from pendtrack.tables.trk import read_trk
@@ -281,12 +281,28 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
     elif layout == "irregular":
         count = change_count(theta, ok)
         gap_after = None
+        dwell: tuple[np.ndarray, float] | None = None
         if count is not None:  # an encoder logging each change of its count: rows at the edges crossed
+            dwell = dwell_gaps(t, theta)
             theta, ok, gap_after = at_count_edges(theta, ok, count)
+            gap_after = gap_after | dwell[0]
+        n_rows = t.size
+        t_rows = t
         theta, columns, t, info["resampled"] = resample_irregular(t, theta, ok, columns, path=path,
                                                                   gap_after=gap_after)
         if count is not None:
-            info["resampled"].update(change_driven=True, count_rad=count, gap_counts=CHANGE_GAP_COUNTS)
+            assert dwell is not None
+            info["resampled"].update(change_driven=True, count_rad=count, gap_counts=CHANGE_GAP_COUNTS,
+                                     dwell_limit_s=dwell[1] if math.isfinite(dwell[1]) else None)
+            if np.any(dwell[0]):
+                k = int(np.argmax(np.diff(t_rows)))
+                text = (f"{int(np.count_nonzero(dwell[0]))} spacing(s) without a row longer than a period "
+                        f"({dwell[1]:.3g} s), the longest {t_rows[k + 1] - t_rows[k]:.3g} s after t = {t_rows[k]:.6g} "
+                        f"s: no swinging bob stays so long within one count (at rest, or the logger paused), so "
+                        f"each is a gap; {info['resampled']['n_samples_unused']} of {n_rows} rows in runs too short "
+                        "to use")
+                log.warning("%s: %s", path, text)
+                info["warnings"].append(text)
             log.info("%s: a row per change of a %.4g-rad count: rows taken at the count edges crossed, spacings "
                      "within %d counts are no gaps", path, count, CHANGE_GAP_COUNTS)
         ok = np.ones(t.size, dtype=bool)

@@ -220,6 +220,32 @@ def test_a_change_driven_log_keeps_the_gaps_it_has():
                              np.ones(clock.size, bool)) is None
 
 
+def test_a_change_driven_log_that_stops_writing_has_a_gap_not_an_invented_swing(tmp_path):
+    # y-fysiks/PHY180-Pendulum-datafit@607a0fa, Lab2/data2_29.csv: 39 s of a swing, then one row 30.7 s later, a
+    # count from the last. A dwell within one count, by the change-driven reading: the cubic spline through it
+    # invented a 10-rad bump over 30 s (its stated error bound 6e7 rad), and a 4-start fit of the 70-s record ran
+    # for minutes. A spacing longer than a period is no swinging bob's dwell: a gap, said in a warning.
+    count = 2.0 * np.pi / 2400.0
+    t, theta, motion = _change_driven(count, seconds=12.0)
+    t = np.r_[t, t[-1] + 30.7]
+    theta = np.r_[theta, theta[-1] + count]
+    src = tmp_path / "encoder.csv"
+    src.write_text("timestamp, angle\n" + "".join(f"{a:.9f}, {b!r}\n" for a, b in zip(t.tolist(), theta.tolist())))
+    rec = read_record(src)
+    r = rec.info["resampled"]
+    # the period of SWING (Omega0 5 rad/s, 1.26 s) measured from the rows' turning points, within 5 %
+    assert r["change_driven"] and r["dwell_limit_s"] == pytest.approx(2 * np.pi / 5.0, rel=0.05)
+    assert rec.t[-1] < 12.0 and r["n_samples_unused"] == 1  # the lone last row: a run too short for a spline
+    assert np.max(np.abs(rec.theta)) < 0.61  # the swing's own reach (0.6 rad), no bump
+    assert any("longest 30.7 s after" in w and "a gap" in w for w in rec.warnings)
+    # the log as written before its last row reads as it did: no spacing of the swing itself is taken for a gap
+    plain = tmp_path / "plain.csv"
+    plain.write_text("timestamp, angle\n" + "".join(f"{a:.9f}, {b!r}\n" for a, b in zip(t[:-1].tolist(),
+                                                                                       theta[:-1].tolist())))
+    ref = read_record(plain)
+    assert ref.warnings == () and ref.t.size == rec.t.size and np.array_equal(ref.theta, rec.theta)
+
+
 # --- column names: indexed, t_s ---------------------------------------------------------------
 
 def test_indexed_names_t_s_theta1_rad(tmp_path):
