@@ -237,9 +237,10 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
     Raises
     ------
     TrackingError
-        Too few ok points, or a circle that locates the axle so poorly that theta's scale is
+        Too few ok points, a circle that locates the axle so poorly that theta's scale is
         uncertain by more than :data:`MAX_SCALE_REL` (an arc bending within the noise, or no arc
-        about one axle). An arc shorter than :data:`MIN_ARC_SPAN_DEG` within it gives theta with
+        about one axle), or an axle below every tracked position (an arc bending the wrong way:
+        a wrong lens correction, or no hanging bob). An arc shorter than :data:`MIN_ARC_SPAN_DEG` within it gives theta with
         a warning.
     ConfigError
         Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is
@@ -289,6 +290,18 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
                 f"the track is no arc about one axle (circle residual {circle.rms:.1f} px rms, radius "
                 f"{circle.radius:.0f} +- {sr:.0f} px): the tracked point is not the bob, or the bob swings out "
                 f"of the image plane; track again with --roi X,Y,W,H around the bob, filmed square to its swing",
+                path=source)
+        if circle.yc > float(np.max(ys)):
+            # image y points down: a hanging bob's arc bends about an axle above it, never below every position
+            lens = track_config.get("lens")
+            projection = lens.get("projection") if isinstance(lens, Mapping) else None
+            fix = ("the lens correction may bend the arc so: track again with --projection none if the camera's "
+                   "lens has no fisheye distortion (a phone's, a webcam's), or with its own --projection/--fov"
+                   if projection not in (None, "none") else
+                   "the camera is upside down, or the tracked point is not a hanging bob")
+            raise TrackingError(
+                f"the marker's arc bends about an axle below it (at ({circle.xc:.0f}, {circle.yc:.0f}) px, under "
+                f"every tracked position, lowest at y = {float(np.max(ys)):.0f} px): no hanging pendulum's; {fix}",
                 path=source)
         if span < MIN_ARC_SPAN_DEG:
             log.warning("%s: the marker's arc spans %.1f deg: the axle is located to +-%.1f px (radius %.0f +- %.1f "

@@ -272,26 +272,31 @@ def check_lens(u: np.ndarray, v: np.ndarray, *, width: int, height: int, project
     if (projection, fov_deg) != (PAPER_PROJECTION, PAPER_FOV_DEG):
         fes["paper"] = _fisheye(width, height, PAPER_PROJECTION, PAPER_FOV_DEG, fixed_pixels)
     fits = {name: _fit(fe, u, v) for name, fe in fes.items()}
+    order = np.arange(u.size)
+
+    def hypotheses() -> tuple[LensHypothesis, ...]:
+        x_c, y_c, c_c, _ = fits["configured"]
+        theta_c = _theta(x_c, y_c, c_c, order)
+        hyps = []
+        for name, fe in fes.items():
+            x, y, c, rel = fits[name]
+            d = _theta(x, y, c, order) - theta_c
+            hyps.append(LensHypothesis(name=name, projection=fe.projection, fov_deg=float(fe.fov_deg),
+                                       rms_px=float(rel * c.radius), rms_rel=float(rel), radius_px=float(c.radius),
+                                       arc_span_deg=float(np.degrees(c.arc_span)),
+                                       theta_change_mrad=float(1e3 * np.sqrt(np.mean(d * d)))))
+        return tuple(hyps)
+
     span = float(np.degrees(fits["configured"][2].arc_span))
     if span < MIN_ARC_DEG:
-        return undecided(f"the arc spans {span:.0f} deg: at least {MIN_ARC_DEG:.0f} deg are needed to compare lenses")
+        # no verdict, but what each lens would make of theta: what the unchecked default lens puts at stake
+        return undecided(f"the arc spans {span:.0f} deg: at least {MIN_ARC_DEG:.0f} deg are needed to compare lenses",
+                         hypotheses())
     fit_projection = projection if projection != "none" else PAPER_PROJECTION
     fov_fit = _best_fov(u, v, width=width, height=height, projection=fit_projection, fixed_pixels=fixed_pixels)
     fes["fitted_fov"] = _fisheye(width, height, fit_projection, fov_fit, fixed_pixels)
     fits["fitted_fov"] = _fit(fes["fitted_fov"], u, v)
-
-    order = np.arange(u.size)
-    x_c, y_c, c_c, _ = fits["configured"]
-    theta_c = _theta(x_c, y_c, c_c, order)
-    hyps = []
-    for name, fe in fes.items():
-        x, y, c, rel = fits[name]
-        d = _theta(x, y, c, order) - theta_c
-        hyps.append(LensHypothesis(name=name, projection=fe.projection, fov_deg=float(fe.fov_deg),
-                                   rms_px=float(rel * c.radius), rms_rel=float(rel), radius_px=float(c.radius),
-                                   arc_span_deg=float(np.degrees(c.arc_span)),
-                                   theta_change_mrad=float(1e3 * np.sqrt(np.mean(d * d)))))
-    hyps_t = tuple(hyps)
+    hyps_t = hypotheses()
     noise = min(h.rms_rel for h in hyps_t)
     fish = "configured" if projection != "none" else "paper"
     normal = "none" if projection != "none" else "configured"

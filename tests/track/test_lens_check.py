@@ -75,6 +75,21 @@ def test_undecided_when_the_geometry_cannot_tell(case):
     assert {"on_axis": "geometry", "short_arc": "arc spans", "few_points": "ok points"}[case] in c.reason
 
 
+def test_a_short_arc_through_a_normal_lens_names_what_the_default_lens_puts_at_stake():
+    # a screen capture of a simulation (fisica-basica/paginas-fisica-facin-ufpa@354ba5a, pendulo1.mp4: a 59-deg
+    # arc, no lens) tracked under the default fisheye: "undecided" with no hypotheses, so no word that theta
+    # hung on the lens, and theta came out up to 9.5 deg off. A short arc gives no verdict, but each lens' theta
+    from pendtrack.track.axle import unchecked_lens_text
+
+    c = _check(*_points("rectilinear", 95.0, amplitude=0.45))
+    assert c.verdict == "undecided" and "arc spans" in c.reason and c.suggestion is None
+    # a 0.45-rad swing 14 cm off the optical axis: the fisheye's correction moves theta by ~20 mrad against the
+    # track's 0.2-px scatter on a ~150-px radius (1.3 mrad)
+    assert c.hypothesis("none").theta_change_mrad > 10
+    text = unchecked_lens_text(c)
+    assert "arc spans" in text and "theta depends on it" in text and "--projection none" in text
+
+
 def test_no_judgement_on_a_track_that_is_no_clean_arc():
     # a point that hardly moves (a static look-alike's jitter) and a track that jumps between objects:
     # no lens makes either a circle, and none is proposed (issue #27: "equisolid 210 deg, 1e9x better")

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from pendtrack.config import AngleConfig
+from pendtrack.errors import TrackingError
 from pendtrack.track.axle import angle_table
 from pendtrack.track.circle import off_circle
 
@@ -81,3 +82,16 @@ def test_a_clean_track_keeps_every_point():
                         track_config={}, source="track.parquet")
     assert table.frame["ok"].all() and table.extra["off_circle"]["n"] == 0
 
+
+
+@pytest.mark.parametrize("projection", ["equisolid", "none"])
+def test_an_arc_bending_about_an_axle_below_it_is_no_hanging_pendulum(projection):
+    # a long pendulum filmed through a phone's lens, the axle far above the frame and a 2-deg swing
+    # (Niettzche/PenduloNewton@34bbab5, videos/pendulo3.mp4): the default fisheye correction bent the flat arc the
+    # other way, and the angle stage put the axle 9000 px below the bob, theta a third of the swing's, exit 0
+    t, _, x, y = swing_path(amp=0.3, noise=0.2)
+    y = 2 * AXLE[1] + 2 * ARM - y  # the same arc mirrored: it bends up, about an axle below it
+    with pytest.raises(TrackingError, match="bends about an axle below it") as err:
+        angle_table(track_frame(x, y, t), options=AngleConfig(lens_check="off"), track_extra={},
+                    track_config={"lens": {"projection": projection}}, source="track.parquet")
+    assert ("--projection none" in str(err.value)) == (projection != "none")
