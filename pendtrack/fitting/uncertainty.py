@@ -39,6 +39,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.fft
 
 from pendtrack.config import FitConfig
 from pendtrack.fitting.leastsq.cost import channels
@@ -263,31 +264,73 @@ def hac_meat(jac: np.ndarray, r: np.ndarray, n: int, *, lag: int | None = None,
         return meat, lag
     if lag is None:
         lag = flat_top_lag(rc.T, min_flat=min_flat)
-    lags = range(0, min(lag, n - 1) + 1)
-    weights = [kernel_weight(ell, lag, kernel) if ell else 1.0 for ell in lags]
+    top = min(lag, n - 1)
+    weights = np.array([kernel_weight(ell, lag, kernel) if ell else 1.0 for ell in range(top + 1)])
     c = rc.shape[0]
-    cross = {}  # (ell, a, b) -> sum_i J_a(i)^T J_b(i + ell), p x p
-    gamma = np.zeros((len(lags), c, c))  # mean r_a(i) r_b(i + ell)
-    for ell in lags:
-        if weights[ell] == 0.0:
-            continue
-        for a in range(c):
-            for b in range(c):
-                gamma[ell, a, b] = float(rc[a, : n - ell] @ rc[b, ell:]) / (n - ell)
-                cross[ell, a, b] = jc[a, : n - ell].T @ jc[b, ell:]
-    gamma = gamma + projection_bias(jc, gamma, weights, cross)
-    meat = np.zeros((jac.shape[1], jac.shape[1]))
-    for (ell, a, b), term in cross.items():
-        term = gamma[ell, a, b] * term
-        meat += weights[ell] * (term if ell == 0 else term + term.T)
+    gamma = np.zeros((top + 1, c, c))  # mean r_a(i) r_b(i + ell), on the lags the kernel weighs
+    for ell in np.flatnonzero(weights):
+        gamma[ell] = rc[:, : n - ell] @ rc[:, ell:].T / (n - ell)
+    toeplitz = ToeplitzProducts(jc, top)
+    gamma = gamma + projection_bias(toeplitz, gamma, weights)
+    meat = np.einsum("cnp,cnq->pq", jc, toeplitz.sigma_times(gamma * weights[:, None, None]))
     return nearest_psd(meat), lag
 
 
 PROJECTION_ITERATIONS = 3  # fixed-point steps of the bias correction (each changes the meat by ~(p lag / n)^k)
 
 
-def projection_bias(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
-                    cross: dict[tuple[int, int, int], np.ndarray]) -> np.ndarray:
+class ToeplitzProducts:
+    """Products of a stationary covariance ``Sigma`` with the Jacobian's channels, by FFT.
+
+    ``Sigma`` is block Toeplitz: ``E e_a(i) e_b(i + ell) = g[ell, a, b]`` for ``0 <= ell <= L`` (and its
+    mirror for negative lags), zero beyond. Both products the meat needs are correlations over the
+    sample index, so the FFT (padded to ``n + L``: no wrap-around) does in O(c^2 p n log n) what lag by
+    lag takes O(L c^2 p^2 n).
+
+    Parameters
+    ----------
+    jc : ndarray, shape (c, n, p)
+        The Jacobian's channels.
+    top : int
+        The largest lag ``L`` [samples].
+    """
+
+    def __init__(self, jc: np.ndarray, top: int) -> None:
+        self.jc = jc
+        self.n = jc.shape[1]
+        self.top = top
+        self.size = scipy.fft.next_fast_len(self.n + top + 1, real=True)
+        self.spectrum = scipy.fft.rfft(jc, self.size, axis=1)  # (c, size // 2 + 1, p)
+
+    def sigma_times(self, g: np.ndarray) -> np.ndarray:
+        """``Sigma J`` channel by channel, ``g`` the kernel-weighted covariances, shape (L + 1, c, c).
+
+        ``(Sigma J)_a(i) = sum_b [sum_{ell >= 0} g[ell, a, b] J_b(i + ell) + sum_{ell >= 1} g[ell, b, a] J_b(i - ell)]``.
+        """
+        c = g.shape[1]
+        kernel = np.zeros((c, c, self.size))  # circular: lag ell at index -ell, lag -ell at index ell
+        kernel[:, :, 0] = g[0]
+        kernel[:, :, self.size - np.arange(1, self.top + 1)] = np.moveaxis(g[1:], 0, -1)
+        kernel[:, :, 1: self.top + 1] = np.moveaxis(g[1:], 0, -1).transpose(1, 0, 2)
+        spec = scipy.fft.rfft(kernel, axis=2)  # (c, c, f)
+        q = scipy.fft.irfft(np.einsum("abf,bfp->afp", spec, self.spectrum), self.size, axis=1)
+        return q[:, : self.n]
+
+    def lagged_dots(self, x: np.ndarray, y_spectrum: np.ndarray) -> np.ndarray:
+        """``D[ell, a, b] = sum_i x_a(i) . y_b(i + ell)`` for ``ell = 0..L``, ``y`` given by its spectrum.
+
+        Parameters
+        ----------
+        x : ndarray, shape (c, n, p)
+        y_spectrum : ndarray, shape (c, f, p)
+            ``scipy.fft.rfft(y, self.size, axis=1)``.
+        """
+        xs = scipy.fft.rfft(x, self.size, axis=1)
+        d = scipy.fft.irfft(np.einsum("afp,bfp->abf", np.conj(xs), y_spectrum), self.size, axis=2)
+        return np.moveaxis(d[:, :, : self.top + 1], 2, 0)
+
+
+def projection_bias(toeplitz: ToeplitzProducts, gamma: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """How much the residuals' autocovariances fall short of the noise's, because the fit absorbed part of it.
 
     The residuals are ``r = (I - P) e``, ``P = J B^-1 J^T`` the projection on the Jacobian's
@@ -301,55 +344,49 @@ def projection_bias(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
 
     Parameters
     ----------
-    jc : ndarray, shape (c, n, p)
-        The Jacobian's channels.
+    toeplitz : ToeplitzProducts
+        Over the Jacobian's channels.
     gamma : ndarray, shape (L + 1, c, c)
         Mean ``r_a(i) r_b(i + ell)`` of the residual channels.
-    weights : list of float
+    weights : ndarray, shape (L + 1,)
         The kernel's weight of each lag.
-    cross : dict
-        ``(ell, a, b) -> sum_i J_a(i)^T J_b(i + ell)``.
 
     Returns
     -------
     ndarray, shape (L + 1, c, c)
-        What to add to ``gamma``.
+        What to add to ``gamma`` (zero on the lags of weight 0).
     """
+    jc = toeplitz.jc
     try:
         binv = np.linalg.inv(np.einsum("cnp,cnq->pq", jc, jc))
     except np.linalg.LinAlgError:
         return np.zeros_like(gamma)
     with np.errstate(over="ignore", invalid="ignore"):
-        bias = _projection_fixed_point(jc, gamma, weights, cross, binv)
+        bias = _projection_fixed_point(toeplitz, gamma, weights, binv)
     # J^T J singular to rounding (a memory fit on a 140-s Tracker record ran p_f to 189 and G2 to 2.5e159:
     # cond 3e20) gives an inverse whose products overflow; then, as for an exactly singular one, no correction
     return bias if np.all(np.isfinite(bias)) else np.zeros_like(gamma)
 
 
-def _projection_fixed_point(jc: np.ndarray, gamma: np.ndarray, weights: list[float],
-                            cross: dict[tuple[int, int, int], np.ndarray], binv: np.ndarray) -> np.ndarray:
-    """:func:`projection_bias`'s fixed point, given ``binv = (J^T J)^-1``."""
-    c, n, _ = jc.shape
+def _projection_fixed_point(toeplitz: ToeplitzProducts, gamma: np.ndarray, weights: np.ndarray,
+                            binv: np.ndarray) -> np.ndarray:
+    """:func:`projection_bias`'s fixed point, given ``binv = (J^T J)^-1``.
+
+    The ``ell``-th diagonal of ``P Sigma + Sigma P - P Sigma P`` between channels ``a`` and ``b`` sums to
+    ``sum_i [(J_a B^-1)(i) . (Sigma J)_b(i + ell) + ((Sigma J)_a B^-1 - J_a M)(i) . J_b(i + ell)]`` with
+    ``M = B^-1 J^T Sigma J B^-1``: lagged dot products of sample rows (:meth:`ToeplitzProducts.lagged_dots`).
+    """
+    jc, n = toeplitz.jc, toeplitz.n
+    live = weights != 0.0
+    scale = np.where(live, 1.0 / (n - np.arange(weights.size)), 0.0)[:, None, None]
+    jb = jc @ binv  # (c, n, p); B^-1 is symmetric
     bias = np.zeros_like(gamma)
     for _ in range(PROJECTION_ITERATIONS):
-        g = (gamma + bias) * np.asarray(weights)[:, None, None]
-        q = np.zeros_like(jc)  # Sigma J, channel by channel
-        for ell in range(g.shape[0]):
-            for a in range(c):
-                for b in range(c):
-                    if g[ell, a, b] == 0.0:
-                        continue
-                    q[a, : n - ell] += g[ell, a, b] * jc[b, ell:]  # E e_a(i) e_b(i + ell) J_b(i + ell)
-                    if ell:
-                        q[b, ell:] += g[ell, a, b] * jc[a, : n - ell]  # the mirrored lag
+        q = toeplitz.sigma_times((gamma + bias) * weights[:, None, None])  # Sigma J, channel by channel
         mid = binv @ np.einsum("cnp,cnq->pq", jc, q) @ binv  # B^-1 J^T Sigma J B^-1
-        new = np.zeros_like(gamma)
-        for (ell, a, b), jj in cross.items():
-            ps = float(np.sum(binv * (q[b, ell:].T @ jc[a, : n - ell])))  # P Sigma
-            sp = float(np.sum(binv * (jc[b, ell:].T @ q[a, : n - ell])))  # Sigma P
-            psp = float(np.sum(mid * jj.T))  # P Sigma P
-            new[ell, a, b] = (ps + sp - psp) / (n - ell)
-        bias = new
+        ps = toeplitz.lagged_dots(jb, scipy.fft.rfft(q, toeplitz.size, axis=1))  # P Sigma
+        sp = toeplitz.lagged_dots(q @ binv - jc @ mid.T, toeplitz.spectrum)  # Sigma P - P Sigma P
+        bias = (ps + sp) * scale
     return bias
 
 
