@@ -313,6 +313,13 @@ def _fit_through_origin(x: np.ndarray, y: np.ndarray) -> Omega0Estimate:
             raise FitError(str(exc)) from None
 
 
+MIN_SLOPE_SIGMAS = 3.0  # -Omega0^2 is this many standard errors below 0 at least (Omega0 to 1/6 of itself)
+
+
+class NoRestoringTorque(FitError):
+    """At the turning points alpha does not oppose sin(theta): the record is no pendulum's swing about its zero."""
+
+
 class _RestSetsTheSlope(FitError):
     """The turning points that agree on a slope lie within :data:`MIN_SPAN` of the swing's reach."""
 
@@ -341,12 +348,17 @@ def _slope_through_origin(x: np.ndarray, y: np.ndarray, finite: np.ndarray) -> O
                                 f"the swing reaches {math.asin(min(1.0, reach)):.3g} rad: too few swings above the "
                                 "noise to estimate Omega0 (does the record come to rest after a few swings?)")
     if k >= 0.0:
-        raise FitError(f"alpha at the turning points does not oppose sin(theta) (slope {k:.3g} >= 0): "
-                       "no restoring torque, cannot estimate Omega0")
+        raise NoRestoringTorque(f"alpha at the turning points does not oppose sin(theta) (slope {k:.3g} >= 0): "
+                                "no restoring torque, cannot estimate Omega0")
     n = int(use.sum())
     res = y[use] - k * x[use]
     s2 = float(np.dot(res, res)) / (n - 1)
     se_k = math.sqrt(s2 / sxx)
+    if -k < MIN_SLOPE_SIGMAS * se_k:
+        # turning points of a tracker that held still places in turn (their noise's): a slope of either sign
+        raise NoRestoringTorque(f"alpha at the turning points does not measurably oppose sin(theta) (slope "
+                                f"{k:.3g} +- {se_k:.2g}, within {MIN_SLOPE_SIGMAS:g} standard errors of 0): no "
+                                "restoring torque, cannot estimate Omega0")
     w0 = math.sqrt(-k)
     return Omega0Estimate(omega0=w0, stderr=se_k / (2.0 * w0), n_points=n, n_rejected=n_total - n,
                           rms=math.sqrt(float(np.mean(res ** 2))))

@@ -12,7 +12,7 @@ import numpy as np
 from pendtrack.config import KinematicsConfig
 from pendtrack.errors import FitError
 from pendtrack.kinematics.analysis import (
-    Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
+    NoRestoringTorque, Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
     negative_damping_fraction, phase, phase_speed, savgol_bias_moments, swing_centre_shift, turning_points,
 )
 from pendtrack.kinematics.differentiate import KinematicsResult, savgol_kinematics
@@ -39,6 +39,9 @@ class InitialAnalysis:
     centre : float
         The angle the columns are taken about [rad]: the swing's centre when the record's zero is far from
         it (:func:`swing_centre_shift`: a sensor's or an axis' zero), else 0.
+    restoring : bool
+        False when alpha at the turning points does not oppose sin(theta) (:class:`NoRestoringTorque`):
+        the record is no pendulum's swing.
     """
 
     omega0: Omega0Estimate | None
@@ -47,13 +50,14 @@ class InitialAnalysis:
     negative_damping_fraction: float = math.nan
     reason: str = ""
     centre: float = 0.0
+    restoring: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         return {"omega0": None if self.omega0 is None else self.omega0.to_dict(),
                 "turning": self.turning.to_dict(),
                 "columns": {k: v.tolist() for k, v in self.columns.items()},
                 "negative_damping_fraction": self.negative_damping_fraction, "reason": self.reason,
-                "centre": self.centre}
+                "centre": self.centre, "restoring": self.restoring}
 
 
 def record_turning_points(kin: KinematicsResult) -> TurningPoints:
@@ -124,14 +128,16 @@ def analyse(kin: KinematicsResult, *, omega0: float | None = None, correct_smoot
     """
     tp = record_turning_points(kin)
     est: Omega0Estimate | None
-    reason = ""
+    reason, restoring = "", True
     try:
         est = estimate_omega0(tp.theta, tp.alpha, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
+    except NoRestoringTorque as exc:
+        est, reason, restoring = None, str(exc), False
     except FitError as exc:
         est, reason = None, str(exc)
     w0 = omega0 if omega0 is not None else (None if est is None else est.omega0)
     if w0 is None:
-        return InitialAnalysis(omega0=None, turning=tp, reason=reason)
+        return InitialAnalysis(omega0=None, turning=tp, reason=reason, restoring=restoring)
     # amplitudes, energy, phase and delta_alpha are about the hanging position: the swing's centre, as Omega0's
     # estimate takes it, when the record's zero is not there
     centre = swing_centre_shift(tp.theta)

@@ -95,6 +95,11 @@ def kinematics_table(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, option
     """
     kin = differentiate_record(t, theta, ok, options=options, source=source)
     ana = analyse(kin)
+    if not ana.restoring:
+        # every fit of such a record is meaningless (it ended in "too few gap-free stretches" or a fit far off)
+        raise KinematicsError(f"theta is no pendulum's swing: {ana.reason}; the tracked point is "
+                              "not the bob (track again with --roi X,Y,W,H around it), or the angle is not theta from "
+                              "the vertical in radians (--columns with its unit, e.g. t,theta[deg])", path=source)
     raw = omega0_from_kinematics(kin, correct_smoothing=False) if ana.omega0 is not None else None
     if ana.omega0 is None:
         log.warning("%s: no model-free Omega0 (%s); analysis columns left out", source, ana.reason)

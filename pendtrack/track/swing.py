@@ -6,7 +6,10 @@ A static look-alike (a dark corner, a shadow, a poster) stays within its trackin
 track that does not cross its middle (the median position) at least :data:`MIN_CROSSINGS` times shows no swing
 either, and nor does a track that stays in one place for most of its frames
 (:data:`MAX_STILL_SHARE`): a tracker that lost the bob and then held a static patch swung only
-before it lost it. Such a track is no result (:func:`swing_of_track`, used by the track stage).
+before it lost it. Nor does a track whose crossings come at no steady rhythm (:data:`MIN_REGULAR_SHARE`):
+a tracker that took a hand, a knot and pieces of the scenery for the marker in turn crosses its middle
+whenever it jumps from one to the next. Such a track is no result (:func:`swing_of_track`, used by the
+track stage).
 
 The crossings are counted with hysteresis: the displacement ``d`` (about its median) must go
 from below ``-h`` to above ``+h`` (or back), ``h`` the larger of :data:`MIN_HYSTERESIS_PX`
@@ -31,6 +34,13 @@ AMPLITUDE_PERCENTILE = 99.0  # the amplitude: half the spread between this and i
 # a swinging point passes its middle quickly: within 2 px of its median position in <= 9 % of its frames on every
 # real take tried (0.1-9 %), while a tracker that held a static patch after losing the bob stays there in 87-91 %
 MAX_STILL_SHARE = 0.5
+# a pendulum crosses its middle at a steady rhythm: on every real take tried 92-100 % of the intervals between
+# crossings lie within a factor REGULAR_FACTOR of their median (synthetic swings released up to 3.13 rad, or held
+# for 30 s before a 30-s swing: 80-100 %); a tracker that hopped between a hand, a knot and the scenery for 14 s:
+# 1 of 4. Judged with MIN_REGULAR_INTERVALS intervals or more
+REGULAR_FACTOR = 2.0
+MIN_REGULAR_SHARE = 0.5
+MIN_REGULAR_INTERVALS = 3
 
 
 @dataclass(frozen=True)
@@ -41,8 +51,10 @@ class Swing:
     ----------
     swings : bool
         It goes back and forth: amplitude >= :data:`MIN_AMPLITUDE_PX`, >= :data:`MIN_CROSSINGS`
-        crossings, and within the hysteresis band (at least :data:`MIN_AMPLITUDE_PX`) of its median
-        position in at most :data:`MAX_STILL_SHARE` of its frames.
+        crossings, within the hysteresis band (at least :data:`MIN_AMPLITUDE_PX`) of its median
+        position in at most :data:`MAX_STILL_SHARE` of its frames, and at least
+        :data:`MIN_REGULAR_SHARE` of the intervals between its crossings within a factor
+        :data:`REGULAR_FACTOR` of their median (:func:`regular_share`).
     reason : str
         One sentence (what it does when it does not swing).
     centre : (float, float)
@@ -123,6 +135,20 @@ def period_from_crossings(tc: np.ndarray) -> float:
     return float(2.0 * slope)
 
 
+def regular_share(tc: np.ndarray) -> float:
+    """Share of the intervals between crossing times ``tc`` [s] within a factor :data:`REGULAR_FACTOR` of
+    their median [1]; NaN with fewer than :data:`MIN_REGULAR_INTERVALS` intervals.
+
+    A swing's half-periods are alike (they change slowly as it decays; a middle off the swing's centre
+    alternates a short and a long one); crossings made by a tracker jumping between objects are not.
+    """
+    gaps = np.diff(np.asarray(tc, float))
+    if gaps.size < MIN_REGULAR_INTERVALS:
+        return float("nan")
+    mid = float(np.median(gaps))
+    return float(np.mean((gaps >= mid / REGULAR_FACTOR) & (gaps <= REGULAR_FACTOR * mid)))
+
+
 def swing_of_track(t: np.ndarray, x: np.ndarray, y: np.ndarray, ok: np.ndarray) -> Swing:
     """Does the ok part of a track swing? (see the module docstring).
 
@@ -170,5 +196,11 @@ def swing_of_track(t: np.ndarray, x: np.ndarray, y: np.ndarray, ok: np.ndarray) 
         return Swing(False, f"{where} does not swing back and forth: it crosses the middle of its path "
                      f"{tc.size} times (a swing needs {MIN_CROSSINGS})", (cx, cy), amplitude, noise, int(tc.size),
                      period)
+    regular = regular_share(tc)
+    if regular < MIN_REGULAR_SHARE:
+        return Swing(False, f"{where} does not swing at a steady rhythm: only {100 * regular:.0f} % of the "
+                     f"{tc.size - 1} intervals between its crossings of the middle are within a factor "
+                     f"{REGULAR_FACTOR:g} of their median (a pendulum's half-periods are alike): it followed other "
+                     "things in turn", (cx, cy), amplitude, noise, int(tc.size), period)
     return Swing(True, f"{where} swings {amplitude:.1f} px either way, {tc.size} crossings", (cx, cy), amplitude,
                  noise, int(tc.size), period)

@@ -434,3 +434,26 @@ def test_cli_kinematics(tmp_path: Path) -> None:
                    provenance=Provenance(stage="angle"))
     res = runner.invoke(cli, ["kinematics", str(wrong), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2 and "times must increase strictly: a repeated time" in res.output and "wrong.parquet" in res.output
+
+
+def test_an_angle_with_no_restoring_torque_is_refused_not_fitted(tmp_path):
+    # Niettzche/PenduloNewton@34bbab5 pendulo6.mp4, tracked by default: the tracker took a hand, a knot and the
+    # scenery for the marker in turn, so theta held still at 221, 44 and -52 deg for seconds each and moved between
+    # them by hand. The kinematics stage warned "no model-free Omega0 ... no restoring torque" and wrote its table;
+    # the fits then failed on "too few gap-free stretches", naming nothing the user could change
+    rng = np.random.default_rng(6)
+    places = np.radians([221.0, 44.0, -52.0, 170.0, -55.0, 60.0, -50.0])
+    holds = [2.2, 1.3, 2.4, 1.6, 0.8, 1.5, 5.0]
+    parts = []
+    for a, b, hold in zip(places, [*places[1:], places[-1]], holds):
+        n_move = int(rng.integers(6, 40))
+        parts += [np.full(int(hold * 30), a), a + (b - a) * (0.5 - 0.5 * np.cos(np.linspace(0, np.pi, n_move)))]
+    theta = np.concatenate(parts) + rng.normal(0, 2e-3, sum(p.size for p in parts))
+    t = np.arange(theta.size) / 30.0
+    angle = tmp_path / "angle.parquet"
+    write_artifact(pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)}), angle, "angle",
+                   provenance=Provenance(stage="angle"))
+    res = CliRunner().invoke(cli, ["kinematics", str(angle), "--out", str(tmp_path / "out"), "-q"])
+    assert res.exit_code == 2, res.output
+    assert "no pendulum's swing" in res.output and "no restoring torque" in res.output and "--roi" in res.output
+    assert not (tmp_path / "out" / "kinematics.parquet").exists()

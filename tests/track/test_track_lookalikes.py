@@ -264,3 +264,45 @@ def test_an_animated_gif_with_a_red_bob_and_a_red_phase_dot(tmp_path):
     # the zero is the vertical through the fitted axle; a 9-px bob on a 130-px arm, drawn to a quarter pixel and
     # quantised to a GIF palette: within 10 mrad (1.3 px at the bob)
     assert np.abs(df["theta"].to_numpy()[ok] - theta[ok]).max() < 0.010
+
+
+def _hops(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A tracker taking a hand, a knot and pieces of the scenery for the marker in turn (Niettzche/PenduloNewton@34bbab5,
+    pendulo6.mp4, the default pink marker on an amber bob): still for seconds at a place, carried or jumping to the
+    next, 14 s at 30 fps."""
+    places = [(331, 147, 2.2), (571, 407, 1.3), (294, 392, 2.4), (614, 170, 1.6), (265, 403, 0.8), (300, 385, 5.0)]
+    xs, ys = [], []
+    for (xa, ya, hold), (xb, yb, _) in zip(places, [*places[1:], places[-1]]):
+        n_hold, n_move = int(hold * 30), int(rng.integers(1, 40))
+        xs += [np.full(n_hold, float(xa)), np.linspace(xa, xb, n_move, endpoint=False) + rng.normal(0, 15, n_move)]
+        ys += [np.full(n_hold, float(ya)), np.linspace(ya, yb, n_move, endpoint=False) + rng.normal(0, 15, n_move)]
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    return np.arange(x.size) / 30.0, x + rng.normal(0, 0.3, x.size), y + rng.normal(0, 0.3, x.size)
+
+
+def test_a_point_that_hops_between_still_places_does_not_swing():
+    t, x, y = _hops(np.random.default_rng(4))
+    s = swing_of_track(t, x, y, np.ones(t.size, bool))
+    assert not s.swings and "steady rhythm" in s.reason
+    # what the other tests alone would pass: a large spread, crossings, no one place held most of the time
+    cx, cy = np.median(x), np.median(y)
+    assert s.amplitude_px > 100 and s.crossings >= 4 and np.mean(np.hypot(x - cx, y - cy) <= 2.0) < 0.5
+
+
+@pytest.mark.parametrize(("theta0", "hold_s"), [(3.13, 0.0), (1.0, 10.0), (0.3, 0.0)])
+def test_swings_at_any_amplitude_or_after_a_long_hold_keep_a_steady_rhythm(theta0, hold_s):
+    # released near the top the period falls by 3x as the swing decays; held for a third of the record, the middle
+    # (the median) sits off the swing's centre: a short and a long half-period in turn
+    from scipy.integrate import solve_ivp
+
+    rng = np.random.default_rng(5)
+    omega = 2 * np.pi
+    t = np.arange(0, 30, 1 / 30)
+    sol = solve_ivp(lambda _, s: [s[1], -omega ** 2 * np.sin(s[0]) - 0.1 * s[1] * abs(s[1])], (0, 30),
+                    [theta0, 0.0], t_eval=t, rtol=1e-9, atol=1e-9)
+    theta = np.concatenate([np.full(int(hold_s * 30), theta0), sol.y[0]])
+    t = np.arange(theta.size) / 30.0
+    x = 640 + 300 * np.sin(theta) + rng.normal(0, 0.5, t.size)
+    y = 360 + 300 * np.cos(theta) + rng.normal(0, 0.5, t.size)
+    s = swing_of_track(t, x, y, np.ones(t.size, bool))
+    assert s.swings, s.reason
