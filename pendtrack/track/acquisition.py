@@ -27,6 +27,7 @@ ARC_MAX_RADIUS = 2.5  # a pendulum's arc has a radius below this many frame diag
 # long string filmed close, issue 27's bauble: 2.1 diagonals)
 ARC_MIN_RADIUS = 3.0  # ... and above this many marker radii
 ARC_MIN_POINTS = 5  # fewer positions over the window: the path's shape is unclear
+MAX_STILL_STEPS = 0.5  # a path still (within its noise) from one search to the next in more of its steps is unclear
 # A mover whose path is unclear must travel at least this many of its radii to be taken for the marker: the
 # centre of a fixed dot that a swinging rod joins wobbles by half its radius (a drawn pendulum's pivot)
 UNCLEAR_TRAVEL = 1.0
@@ -269,12 +270,17 @@ def path_shape(path: np.ndarray, *, marker_radius: float, diagonal: float) -> st
         ``"not_arc"``: off every circle by more than twice the noise (an erratic path), on a
         circle too small or too large, or straight over a travel long enough that a
         pendulum's arc would bend by more than twice the noise; ``"unclear"``: fewer than
-        :data:`ARC_MIN_POINTS` positions, or a short straight stretch.
+        :data:`ARC_MIN_POINTS` positions, still in more than :data:`MAX_STILL_STEPS` of its steps, or a short
+        straight stretch.
     """
     p = np.asarray(path, float)
     if p.shape[0] < ARC_MIN_POINTS:
         return "unclear"
     tol = max(ARC_TOL_PX, 0.1 * marker_radius)
+    if np.sum(np.hypot(*np.diff(p, axis=0).T) <= tol) > MAX_STILL_STEPS * (p.shape[0] - 1):
+        # a swinging marker is never still for half the window; a still thing linked to a neighbour of its colour
+        # for a search or two (a poster's corner pieces) is, and three distinct places make any circle
+        return "unclear"
     r_max, r_min = ARC_MAX_RADIUS * diagonal, ARC_MIN_RADIUS * marker_radius
     q = p - p.mean(axis=0)
     line_rms = float(np.sqrt(max(np.linalg.eigvalsh(q.T @ q / p.shape[0])[0], 0.0)))

@@ -132,6 +132,9 @@ def unchecked_lens_text(check: LensCheck) -> str:
 #: marker, whatever the lens (one that bends the circle this much fails the lens check): the pivot, a look-alike
 #: the tracker followed for a while
 FAR_FROM_CIRCLE = 0.25
+#: When more than this share of the tracked points is off the circle, the circle is not the track's: the tracker
+#: followed other things for most of the record, and which circle is the marker's is anyone's guess
+MAX_OFF_SHARE = 0.5
 
 
 def _without_off_circle(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, ...],
@@ -170,6 +173,11 @@ def _without_off_circle(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, ...
     frames = df["frame"].to_numpy()[idx] if "frame" in df else idx
     facts: dict[str, Any] = {"n": int(off.sum()), "far": int(far.sum()), "jumps": int(jumps.sum()),
                              "jump_threshold_px": threshold, "frames": [int(f) for f in frames[off][:20]]}
+    if off.sum() > MAX_OFF_SHARE * idx.size:
+        raise TrackingError(f"{int(off.sum())} of {idx.size} tracked points are not on one circle about an axle (the "
+                            f"best one, radius {radius:.0f} px, holds {int((~off).sum())}): the tracker followed other "
+                            "things for most of the record, so theta would be no swing's; track again with --roi "
+                            "X,Y,W,H around the bob in a frame where it swings (or --marker-color, --start)", path=source)
     if off.any():
         ok = ok.copy()
         ok[idx[off]] = False
@@ -240,7 +248,8 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
         Too few ok points, a circle that locates the axle so poorly that theta's scale is
         uncertain by more than :data:`MAX_SCALE_REL` (an arc bending within the noise, or no arc
         about one axle), or an axle below every tracked position (an arc bending the wrong way:
-        a wrong lens correction, or no hanging bob). An arc shorter than :data:`MIN_ARC_SPAN_DEG` within it gives theta with
+        a wrong lens correction, or no hanging bob), or more than :data:`MAX_OFF_SHARE` of the tracked points off
+        the marker's circle (the tracker followed other things). An arc shorter than :data:`MIN_ARC_SPAN_DEG` within it gives theta with
         a warning.
     ConfigError
         Invalid ``[angle]`` values, or (``lens_check = "error"``) the track's default lens is

@@ -98,6 +98,14 @@ class RawSampler:
         """Tracking px per raw px near a raw point (1 here)."""
         return 1.0
 
+    def cuttable(self, x0: int, y0: int, x1: int, y1: int) -> tuple[int, int, int, int]:
+        """The part of the window ``[x0, x1) x [y0, y1)`` [px] this sampler can cut: the frame's."""
+        return max(x0, 0), max(y0, 0), min(x1, self.width), min(y1, self.height)
+
+    def can_cut(self, x0: int, y0: int, x1: int, y1: int) -> bool:
+        """Can the whole window ``[x0, x1) x [y0, y1)`` [px] be cut, every pixel of it seen in the frame?"""
+        return self.cuttable(x0, y0, x1, y1) == (x0, y0, x1, y1)
+
     def blob_from_raw(self, x: float, y: float, radius: float) -> tuple[float, float, float]:
         """A round marker's raw blob (centroid, radius [raw px]) -> its centre and radius in tracking coordinates."""
         return float(x), float(y), float(radius)
@@ -181,6 +189,28 @@ class CorrectedSampler(RawSampler):
 
     def to_raw(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.fisheye.distort_points(x, y)
+
+    def cuttable(self, x0: int, y0: int, x1: int, y1: int) -> tuple[int, int, int, int]:
+        """With tables, the corrected frame's part of the window; without, the whole window.
+
+        Remapped on demand, a window may reach past the corrected frame's rectangle: the lens
+        correction maps the raw frame's edges beyond it (a 16:9 frame under the paper's fisheye: raw x = 30 px of
+        1280 to corrected x = -191 px), and its pixels are the raw frame's all the same.
+        """
+        if self.luma_tables is not None:
+            return super().cuttable(x0, y0, x1, y1)
+        return x0, y0, x1, y1
+
+    def can_cut(self, x0: int, y0: int, x1: int, y1: int) -> bool:
+        """Is every pixel of the window seen in the frame? Without tables: does its raw footprint lie inside the
+        raw frame (its border, sampled every pixel, mapped through the lens)?"""
+        if self.luma_tables is not None:
+            return super().can_cut(x0, y0, x1, y1)
+        xs, ys = np.arange(x0, x1, dtype=float), np.arange(y0, y1, dtype=float)
+        bx = np.concatenate([xs, xs, np.full(ys.size, float(x0)), np.full(ys.size, float(x1 - 1))])
+        by = np.concatenate([np.full(xs.size, float(y0)), np.full(xs.size, float(y1 - 1)), ys, ys])
+        rx, ry = self.fisheye.distort_points(bx, by)
+        return bool(np.all((rx >= 0) & (rx <= self.width - 1) & (ry >= 0) & (ry <= self.height - 1)))
 
     def from_raw(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.fisheye.undistort_points(x, y)

@@ -72,7 +72,7 @@ def make_template(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     pad = half + 3
     x0, y0 = int(np.floor(tx)) - pad, int(np.floor(ty)) - pad
     x1, y1 = int(np.floor(tx)) + pad + 2, int(np.floor(ty)) + pad + 2
-    if x0 < 0 or y0 < 0 or x1 > sampler.width or y1 > sampler.height:
+    if not sampler.can_cut(x0, y0, x1, y1):
         raise TrackingError("the marker is too close to the frame's edge in the first frame")
     level = det.background + 0.5 * det.contrast
     win = filled_window(sampler, y, u, v, x0, y0, x1 - x0, y1 - y0, hole_share * radius, level)
@@ -118,9 +118,11 @@ def filled_window(sampler: RawSampler, y: np.ndarray, u: np.ndarray, v: np.ndarr
     k = fill_reach(radius_px)
     if k < 1:
         return cut(x0, y0, w, h)
-    width, height = (sampler.half_width, sampler.half_height) if half else (sampler.width, sampler.height)
-    gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
-    gx1, gy1 = min(x0 + w + k, width), min(y0 + h + k, height)
+    if half:
+        gx0, gy0 = max(x0 - k, 0), max(y0 - k, 0)
+        gx1, gy1 = min(x0 + w + k, sampler.half_width), min(y0 + h + k, sampler.half_height)
+    else:
+        gx0, gy0, gx1, gy1 = sampler.cuttable(x0 - k, y0 - k, x0 + w + k, y0 + h + k)
     box = np.s_[y0 - gy0:y0 - gy0 + h, x0 - gx0:x0 - gx0 + w]
     return fill_holes(cut(gx0, gy0, gx1 - gx0, gy1 - gy0), radius_px, level=level, box=box)
 

@@ -396,7 +396,7 @@ class MarkerTracker:
             cx, cy, _ = cs.blob_from_raw(mx, my, self.template.radius)
             pad = self.template.half + 3
             wx0, wy0 = int(np.floor(cx)) - pad, int(np.floor(cy)) - pad
-            if wx0 < 0 or wy0 < 0 or wx0 + 2 * pad + 2 > cs.width or wy0 + 2 * pad + 2 > cs.height:
+            if not cs.can_cut(wx0, wy0, wx0 + 2 * pad + 2, wy0 + 2 * pad + 2):
                 return
             t = self.template
             cwin = filled_window(cs, y, u, v, wx0, wy0, 2 * pad + 2, 2 * pad + 2, self.params.hole_share * t.radius,

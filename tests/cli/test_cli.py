@@ -4,6 +4,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -86,3 +87,36 @@ def test_the_fit_summary_says_when_its_errors_are_unreliable(capsys):
     echo_fit_summary({"models": {"classic": {**line, "stderr_reliable": False}, "opa": {**line, "stderr_reliable": True}}})
     out = capsys.readouterr().out.splitlines()
     assert "errors unreliable" in out[0] and "errors unreliable" not in out[1]
+
+
+def test_run_on_a_measured_table_fits_and_reports_it(tmp_path):
+    # `pendtrack run FILE` on a logger's or a tracker's table: `run VIDEO` was all there was, and a table got "not a
+    # readable video"; `discover` already took either
+    import json
+
+    from pendtrack.discovery.synthetic import simulate_run
+
+    t, theta = simulate_run({"Omega0": 4.0, "C1": 0.05, "C0": 0.0, "C2": 0.0}, (), duration=12.0, theta0=1.0,
+                            noise=0.002, rng=np.random.default_rng(3), rate_hz=60.0)
+    table = tmp_path / "swing.csv"
+    np.savetxt(table, np.c_[t, np.degrees(theta)], delimiter=",", header="t,theta[deg]", comments="")
+    few = tmp_path / "few.toml"
+    few.write_text("[fit]\nn_starts = 4\n")
+    out = tmp_path / "out"
+    res = invoke("run", str(table), "--model", "standard", "--config", str(few), "--out", str(out), "-q")
+    assert res.exit_code == 0, res.output
+    assert {p.name for p in out.iterdir()} >= {"kinematics.parquet", "fit_standard.json", "report.html"}
+    assert not (out / "track.parquet").exists()
+    fit = json.loads((out / "fit_standard.json").read_text())
+    # 12 s at 60 Hz with 2 mrad of noise pin Omega0 to ~1e-4 (degrees read as degrees: a unit slip is 57x off)
+    assert abs(fit["params"]["Omega0"]["value"] / 4.0 - 1) < 1e-3
+
+
+def test_run_on_a_video_takes_no_table_flags(tmp_path):
+    video = Path(__file__).resolve().parents[2] / "sample_videos" / "12na1.mp4"
+    out = tmp_path / "out"
+    res = invoke("run", str(video), "--columns", "t,theta", "--out", str(out), "-q")
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines() == [f"error: {video}: --columns, --pivot, --track and --rate describe a "
+                                               "measured record's table, and this is a video"]
+    assert not out.exists() or not any(out.iterdir())

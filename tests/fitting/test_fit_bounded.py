@@ -305,7 +305,7 @@ def test_run_exit_code_follows_the_fit(monkeypatch, tmp_path):
     video.write_bytes(b"")
 
     def fake(facts):
-        def run_pipeline(video, *, out_dir, config, models=None, force=False, progress=True):
+        def run_pipeline(video, *, out_dir, config, models=None, table=None, force=False, progress=True):
             return run_mod.RunOutput(out_dir=tmp_path, stages={"fit": StageOutput((tmp_path / "fit.json",), facts=facts)})
         return run_pipeline
 

@@ -16,8 +16,8 @@ DIAGONAL = float(np.hypot(640, 360))
 T = np.linspace(0.0, 0.5, 11)  # the acquisition window's searches (0.05 s apart)
 
 
-def _swing(arm, amplitude, omega, *, pivot=(320.0, -50.0), noise=0.3, seed=0):
-    th = amplitude * np.cos(omega * T)
+def _swing(arm, amplitude, omega, *, pivot=(320.0, -50.0), noise=0.3, seed=0, phase=0.0):
+    th = amplitude * np.cos(omega * (T + phase))
     rng = np.random.default_rng(seed)
     return np.column_stack([pivot[0] + arm * np.sin(th), pivot[1] + arm * np.cos(th)]) + rng.normal(0, noise, (11, 2))
 
@@ -32,6 +32,13 @@ def _swing(arm, amplitude, omega, *, pivot=(320.0, -50.0), noise=0.3, seed=0):
     (np.column_stack([50 + 200 * T, 300 + 15 * np.sin(2 * np.pi * 2 * T)]), 5.0, "not_arc"),  # a zigzag
     (np.column_stack([320 + 20 * np.cos(8 * T), 200 + 20 * np.sin(8 * T)]), 9.0, "not_arc"),  # circle too small
     (_swing(300, 1.0, 5.0)[:4], 9.0, "unclear"),  # too few positions
+    # a swing turning in the middle of the window, back along its own arc (its slowest steps 3 px): an arc
+    (_swing(300, 1.0, 3.0, phase=-0.25), 9.0, "arc"),
+    # a poster's corner linked to two neighbouring pieces of its colour and still from there on (the blue poster
+    # of the blue-ball-on-bar render, once a marker at the frame's side could be cut under the fisheye): three
+    # places make a circle, but no swinging marker is still for half the window
+    (np.array([[64.1, 43.4], [47.6, 28.6]] + [[20.5, 20.3]] * 5)
+     + np.random.default_rng(0).normal(0, 0.05, (7, 2)), 13.9, "unclear"),
 ])
 def test_path_shape(path, radius, shape):
     assert path_shape(path, marker_radius=radius, diagonal=DIAGONAL) == shape

@@ -319,6 +319,42 @@ def test_warped_template_in_raw_frames_matches_the_corrected_path():
     assert evolving.ok.all() and np.hypot(evolving.x - truth[:, 0], evolving.y - truth[:, 1]).max() < 0.4
 
 
+def lens_swing(n, *, fe, pivot, arm, amp, r=9.0, seed=0):
+    """Frames of a pink disc swinging on an arc in corrected space, seen through the lens ``fe`` (round in
+    corrected space, as a real marker through a real fisheye), and the true centres [corrected px]."""
+    rng = np.random.default_rng(seed)
+    gx, gy = np.meshgrid(np.arange(fe.width, dtype=float), np.arange(fe.height, dtype=float))
+    cx, cy = fe.undistort_points(gx, gy)
+    wall = np.array((150, 160, 165), float)
+    frames, truth = [], []
+    for i in range(n):
+        th = amp * np.cos(2 * np.pi * i / 60)
+        mx, my = pivot[0] + arm * np.sin(th), pivot[1] + arm * np.cos(th)
+        cov = np.clip(r - np.hypot(cx - mx, cy - my) + 0.5, 0.0, 1.0)[..., None]
+        img = wall * (1 - cov) + np.array(PINK, float) * cov + rng.normal(0, 2.0, (fe.height, fe.width, 3))
+        frames.append(yuv_frame(np.clip(img, 0, 255).astype(np.uint8), i, i / 120))
+        truth.append((mx, my))
+    return frames, np.array(truth)
+
+
+@pytest.mark.parametrize("amp", [0.9, 1.1])
+def test_a_marker_whose_corrected_image_lies_past_the_frame_is_tracked_from_the_first_frame(amp):
+    # A 16:9 frame under the paper's fisheye: the correction maps the raw frame's sides beyond the frame's
+    # rectangle, here the marker's first position (raw x 294-302 of 320) to corrected x 317-338. Its template is
+    # cut in corrected space from raw pixels that are all in view: tracked from frame 0 (it was acquired only
+    # 5-8 frames later, once it had swung inwards; on a video of a ball held at the frame's side, a look-alike
+    # was taken for it instead).
+    fe = Fisheye(width=320, height=180)
+    frames, truth = lens_swing(60, fe=fe, pivot=(160.0, -60.0), arm=200.0, amp=amp)
+    assert truth[0, 0] + 9.0 > fe.width  # the marker's corrected disc reaches past the frame
+    res = track_frames(frames, sampler=WarpedRawSampler(parse_marker_colour("pink"), fisheye=fe), params=TrackParams())
+    assert res.acquisition["frame"] == 0 and res.ok.all()
+    rx, ry = fe.distort_points(truth[:, 0], truth[:, 1])
+    # the raw blob's centroid is off the image of the centre by the lens' second-order shift, largest at the
+    # frame's side (0.31 px measured here), plus the 2-level noise's share
+    assert np.hypot(res.x - rx, res.y - ry).max() < 0.5
+
+
 def test_no_marker_and_no_frames_raise():
     rng = np.random.default_rng(0)
     frames = [yuv_frame(scene(120, 160, None, None, rng=rng))]

@@ -149,7 +149,7 @@ def test_run_takes_the_flags_of_its_stages(monkeypatch, tmp_path, swing_60):
 
     seen = {}
 
-    def fake(video, *, out_dir, config, models, force, progress):
+    def fake(video, *, out_dir, config, models, table, force, progress):
         seen["config"] = config
         return run_mod.RunOutput(out_dir=out_dir)
 
