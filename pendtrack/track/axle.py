@@ -137,6 +137,28 @@ FAR_FROM_CIRCLE = 0.25
 MAX_OFF_SHARE = 0.5
 
 
+PARK_WINDOW_S = 0.1  # a point is parked when the track stays within PARK_PX of it for half of this time either side [s]
+PARK_PX = 2.0
+
+
+def _parked(t: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The points where the track sits still: within :data:`PARK_PX` of at least half of the points within
+    :data:`PARK_WINDOW_S` either side.
+
+    A swinging marker passes each place but its turning points and its final rest; a look-alike the tracker sat
+    on stays. The first circle is fitted without the parked points, so it is not pulled through the places a
+    look-alike sat (the final rest, on the circle, is left to the refit)."""
+    n = t.size
+    dt = float(np.median(np.diff(t))) if n > 1 else 0.0
+    reach = int(np.clip(round(PARK_WINDOW_S / dt), 1, max(n - 1, 1))) if dt > 0 else 1
+    close = np.zeros(n, int)
+    for k in range(1, reach + 1):
+        d = np.hypot(x[k:] - x[:-k], y[k:] - y[:-k]) <= PARK_PX
+        close[k:] += d
+        close[:-k] += d
+    return close >= reach
+
+
 def _without_off_circle(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, ...],
                         source: Any) -> tuple[np.ndarray, dict[str, Any]]:
     """``ok`` without the points that are not on the marker's circle about the axle, and the provenance facts
@@ -158,11 +180,14 @@ def _without_off_circle(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, ...
         fit = fit_circle(x[keep], y[keep])
         return (fit.xc, fit.yc), fit.radius
 
-    keep = np.ones(idx.size, bool)
+    t = df["t"].to_numpy(float)[idx] if "t" in df else idx.astype(float)
+    keep = ~_parked(t, x, y)
+    if keep.sum() < 10:
+        keep = np.ones(idx.size, bool)
     centre, radius = circle_of(keep)
     far = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius) > FAR_FROM_CIRCLE * radius
-    if far.any() and (~far).sum() >= 10:
-        centre, radius = circle_of(~far)
+    if far.any() and (~far & keep).sum() >= 10:
+        centre, radius = circle_of(~far & keep)
         far = np.abs(np.hypot(x - centre[0], y - centre[1]) - radius) > FAR_FROM_CIRCLE * radius
     if (~far).sum() < 10:
         return ok, {}  # no circle to judge by: the axle's own checks refuse such a track
