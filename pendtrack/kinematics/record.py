@@ -14,11 +14,13 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.signal import savgol_coeffs
 
 from pendtrack.config import KinematicsConfig
 from pendtrack.kinematics.differentiate import KinematicsError, KinematicsResult, savgol_kinematics
 from pendtrack.kinematics.initial import analyse, omega0_from_kinematics
 from pendtrack.kinematics.free_swing import free_swing
+from pendtrack.kinematics.rest import BAND_QUANTA, BAND_SIGMAS, smallest_step
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +67,46 @@ def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, op
     return replace(kin, info={**kin.info, **held})
 
 
+def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str:
+    """Why ``theta`` holds no swing, or "" when it does.
+
+    A record holds no swing when its usable samples stay within the band a rest stays in (half
+    their range at most :data:`~pendtrack.kinematics.rest.BAND_SIGMAS` times their noise about the
+    Savitzky-Golay curve, or :data:`~pendtrack.kinematics.rest.BAND_QUANTA` of a quantised record's
+    steps: a constant, a static marker's jitter, an encoder flickering by a step), or when it moves
+    but never turns back (no turning point: a ramp, a column of times).
+
+    Parameters
+    ----------
+    theta : ndarray
+        The angle as read [rad], at ``kin.t``.
+    kin : KinematicsResult
+        Its Savitzky-Golay kinematics.
+    n_turning : int
+        Turning points the initial analysis found.
+    """
+    use = kin.ok & np.isfinite(theta) & np.isfinite(kin.theta)
+    if not use.any():
+        return ""
+    raw = theta[use]
+    half_range = 0.5 * float(np.ptp(raw))
+    # the noise about the smooth curve, not from sample-to-sample steps: a swing sampled 10 times a period
+    # steps by a third of its amplitude, which would pass for noise and hide it
+    resid = raw - kin.theta[use]
+    # a sample's residual about the curve keeps 1 - c0 of the noise's variance, c0 the filter's weight on it
+    w, order = int(kin.info.get("window_points", 0)), int(kin.info.get("order", 3))
+    c0 = float(savgol_coeffs(w, order)[w // 2]) if w > order + 1 and w % 2 else 0.0
+    noise = 1.4826 * float(np.median(np.abs(resid - np.median(resid)))) / math.sqrt(1.0 - c0)
+    band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(raw))
+    if half_range <= band:
+        return (f"it stays within {half_range:.3g} rad of {0.5 * (raw.max() + raw.min()):.4g} rad over "
+                f"{raw.size} samples, inside its own noise band ({band:.3g} rad)")
+    if n_turning == 0:
+        return (f"it goes from {raw[0]:.4g} to {raw[-1]:.4g} rad and never turns back ({raw.size} samples, "
+                "no turning point)")
+    return ""
+
+
 def kinematic_columns(kin: KinematicsResult) -> pd.DataFrame:
     """The differentiated columns t, theta, omega, alpha, ok, segment of ``kin``."""
     return pd.DataFrame({"t": kin.t, "theta": kin.theta, "omega": kin.omega, "alpha": kin.alpha, "ok": kin.ok,
@@ -95,6 +137,12 @@ def kinematics_table(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, option
     """
     kin = differentiate_record(t, theta, ok, options=options, source=source)
     ana = analyse(kin)
+    still = no_swing(np.asarray(theta, dtype=float), kin, n_turning=len(ana.turning))
+    if still:
+        # a constant column read as theta, a static "marker": every number derived from it is meaningless
+        raise KinematicsError(f"theta does not swing: {still}; the column read as theta is not the angle "
+                              "(--columns, e.g. t,theta[deg]), or the tracked point is not the bob (track again "
+                              "with --roi X,Y,W,H around it)", path=source)
     if not ana.restoring:
         # every fit of such a record is meaningless (it ended in "too few gap-free stretches" or a fit far off)
         raise KinematicsError(f"theta is no pendulum's swing: {ana.reason}; the tracked point is "

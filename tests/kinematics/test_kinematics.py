@@ -457,3 +457,44 @@ def test_an_angle_with_no_restoring_torque_is_refused_not_fitted(tmp_path):
     assert res.exit_code == 2, res.output
     assert "no pendulum's swing" in res.output and "no restoring torque" in res.output and "--roi" in res.output
     assert not (tmp_path / "out" / "kinematics.parquet").exists()
+
+
+def _no_swing_tables() -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+    rng = np.random.default_rng(11)
+    t = np.arange(2400) / 120.0
+    flicker = np.radians(12.0 + (rng.random(t.size) < 0.2))  # an encoder at rest in whole degrees, a step of flicker
+    return {
+        # Alejandro-RECO/pendulo-gravedad@3272558 datos/2026-10-01_pendulo_crudo.csv: a stopwatch's lap times with the
+        # release amplitude (9 deg) on every row; read as t, theta it was differentiated and written, exit 0
+        "a constant column": ("t_s,theta_deg", t, np.full(t.size, 9.0)),
+        "a static marker's jitter": ("t_s,theta_rad", t, 0.3 + 2e-3 * rng.standard_normal(t.size)),
+        "an encoder flickering by a step": ("t_s,theta_rad", t, flicker),
+        "a column of times": ("t_s,theta_rad", t, 0.1 * t),
+    }
+
+
+@pytest.mark.parametrize("case", list(_no_swing_tables()))
+@pytest.mark.parametrize("command", ["kinematics", "run"])
+def test_an_angle_that_does_not_swing_is_refused_not_differentiated(tmp_path, case, command):
+    header, t, theta = _no_swing_tables()[case]
+    table = tmp_path / "record.csv"
+    np.savetxt(table, np.c_[t, theta], delimiter=",", header=header, comments="")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli, [command, str(table), "--out", str(out), "-q"])
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not ln.startswith("WARNING")]
+    assert res.exit_code == 2, res.output
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "record.csv" in lines[0]
+    assert "theta does not swing" in lines[0] and "--columns" in lines[0]
+    assert not (out / "kinematics.parquet").exists()
+
+
+def test_a_small_swing_above_its_noise_is_differentiated(tmp_path):
+    # the control: 25 mrad of swing in 3 mrad of noise (the fit's smallest amplitude is 20 mrad) is a swing
+    rng = np.random.default_rng(12)
+    t = np.arange(2400) / 120.0
+    theta = 0.025 * np.cos(5.0 * t) * np.exp(-0.02 * t) + 3e-3 * rng.standard_normal(t.size)
+    table = tmp_path / "record.csv"
+    np.savetxt(table, np.c_[t, theta], delimiter=",", header="t_s,theta_rad", comments="")
+    res = CliRunner().invoke(cli, ["kinematics", str(table), "--out", str(tmp_path / "out"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "out" / "kinematics.parquet").exists()
