@@ -44,8 +44,8 @@ from pendtrack.errors import ConfigError
 from pendtrack.tables.clock_times import clock_lines
 from pendtrack.tables.labelled_values import labelled_lines
 from pendtrack.tables.rounded_times import digit_unit
-from pendtrack.tables.units import (ALL_UNITS, RATE_UNITS, ColumnName, columns_hint, parse_column_name, roles,
-                                    split_unit)
+from pendtrack.tables.units import (ALL_UNITS, ANGLE_UNITS, LENGTH_UNITS, RATE_UNITS, TIME_UNITS, ColumnName, columns_hint,
+                                    parse_column_name, roles, split_unit)
 
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)
@@ -59,6 +59,8 @@ _GROUP_SEP = "\x1f"  # joins a group's numbers until the line is split (str.spli
 PAIR_NAMES = frozenset({"position", "positions", "pos", "point", "points", "centroid", "center", "centre",
                         "coordinates", "coords", "location", "xy", "x,y", "(x, y)", "(x,y)", "bob"})
 ROLE_WORDS = {"theta": "an angle", "x": "a position", "y": "a position"}
+KIND_WORDS = {"t": "a time", "theta": "an angle", "xy": "a length", "x": "a position", "y": "a position"}
+DEFAULT_UNITS = {"t": "s", "theta": "rad", "xy": "px"}  # what a name without a unit is read in
 RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and does not integrate a sensor's rates; "
                "export the angle, or film the swing and run pendtrack on the video")
 RAGGED_SHARE = 0.9  # rows below a first row of another width that make it a line of settings (a ragged table's
@@ -189,6 +191,44 @@ def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]
         what = RATE_UNITS.get(unit.replace(" ", ""))
         if what:
             out[i] = (label.strip().strip('"').strip(), what)
+    return out
+
+
+def _unit_columns(preamble: list[tuple[int, str]], width: int) -> dict[int, tuple[str, str, str]]:
+    """Columns of the header (its last line, one field per column) whose unit is a time, an angle or a
+    length: index -> (label, unit, the role kind it fits: ``"t"``, ``"theta"`` or ``"xy"``)."""
+    fields = header_fields(preamble[-1][1]) if preamble else []
+    if len(fields) != width:
+        return {}
+    out = {}
+    for i, label in enumerate(fields):
+        label = label.strip().strip('"').strip()
+        _, unit = split_unit(label.lower())
+        kind = ("t" if unit in TIME_UNITS else "theta" if unit in ANGLE_UNITS else
+                "xy" if unit in LENGTH_UNITS else None)
+        if kind:
+            out[i] = (label, unit, kind)
+    return out
+
+
+def _header_units(cols: list[ColumnName | None], columns: tuple[str, ...], preamble: list[tuple[int, str]],
+                  width: int) -> list[ColumnName | None]:
+    """``--columns`` names without a unit take the unit of the header's column under them; a name over a
+    header column of another kind (a distance in cm named theta) is a ConfigError: read in the name's
+    default unit it would be a meaningless record."""
+    units = _unit_columns(preamble, width)
+    out = list(cols)
+    for i, c in enumerate(cols):
+        if c is None or c.role not in KIND_WORDS or c.declared or i not in units:
+            continue
+        label, unit, kind = units[i]
+        want = "xy" if c.role in ("x", "y") else c.role
+        if kind != want:
+            raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as {label!r}, "
+                              f"{KIND_WORDS[kind]} ({unit}), not {KIND_WORDS[want]}: name the column that holds "
+                              f"{KIND_WORDS[want]}, or declare the unit if the header is wrong "
+                              f"(e.g. {columns[i]}[{DEFAULT_UNITS[want]}])")
+        out[i] = parse_column_name(f"{columns[i]}[{unit}]")
     return out
 
 
@@ -359,6 +399,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                 raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as "
                                   f"{rates[i][0]!r}, a rate ({rates[i][1]}), not {ROLE_WORDS[c.role]}: "
                                   f"{RATE_ADVICE}")
+        cols = _header_units(cols, columns, preamble, width)
     else:
         cols_or_none = _header(preamble, group_sizes(shape_line, sep))
         where = "header"

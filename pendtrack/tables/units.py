@@ -270,6 +270,10 @@ def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
         names = ", ".join(repr(c.label) for c in cols if c is not None and c.role != "_") or "none"
         rest = ",_" * max(len(cols) - 2, 0)  # one name per column: the table's own count
         hint = "" if where == "columns" else f"; name them, e.g. --columns t,theta{rest} or --columns t,x,y{rest[2:]}"
+        if where != "columns" and found.get("t", 0) > 0:  # the clock recognised further in: the hint puts t there
+            hint = f"; name them, e.g. --columns {_after_time(len(cols), found['t'], ('theta',))}"
+            if found["t"] + 2 < len(cols):
+                hint += f" or --columns {_after_time(len(cols), found['t'], ('x', 'y'))}"
         if missing == "t":
             hint += " (a table without times, written at a fixed rate: --rate HZ)"
         raise ConfigError(f"{where}: missing column '{missing}' (needs t and theta, or t, x and y; recognised: "
@@ -282,6 +286,15 @@ def roles(cols: Sequence[ColumnName | None], where: str) -> dict[str, int]:
         if LENGTH_UNITS.get(x.unit) is None or LENGTH_UNITS.get(y.unit) is None:
             raise ConfigError(f"{where}: x is in {x.unit} and y in {y.unit}: give them in one unit")
     return found
+
+
+def _after_time(n: int, at: int, names: tuple[str, ...]) -> str:
+    """``--columns`` for ``n`` columns with t at ``at`` and ``names`` in the columns after it, then before it."""
+    out = ["_"] * n
+    out[at] = "t"
+    for i, name in zip([*range(at + 1, n), *range(at)], names):
+        out[i] = name
+    return ",".join(out)
 
 
 def _first_set(cols: Sequence[ColumnName | None], like: ColumnName) -> dict[str, int] | None:

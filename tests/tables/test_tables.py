@@ -283,7 +283,8 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
                                   "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named", "one_column",
-                                  "settings_line", "rate_and_times", "rate_two_columns"])
+                                  "settings_line", "rate_and_times", "rate_two_columns", "distance",
+                                  "distance_named"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -335,6 +336,17 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         # pendulum_free_swing_data_01.txt: start angle, rate and duration): its 3 numbers were taken for the columns
         src.write_text("trigger_start_deg, sample_rate, duration_sec\n90, 1000, 5\n" + _lines(np.degrees(THETA)))
         fragments = (str(src), "line 2 ('90, 1000, 5') has 3 values", "a line of settings above the samples?")
+    elif case in ("distance", "distance_named"):
+        # an ultrasonic sensor's log of a pendulum (a counter, the time, the distance to the bob): the hint put t on
+        # the counter (--columns t,theta,_: the times read as the angle), and theta named over 'Distance (cm)' was
+        # read as radians
+        src.write_text("Counter,Time (s),Distance (cm)\n" + _lines(np.arange(T.size), T, 40 + 70 * np.sin(THETA),
+                                                                   sep=","))
+        if case == "distance":
+            fragments = (str(src), "recognised: 'Time (s)'", "--columns _,t,theta")
+        else:
+            flags = ("--columns", "_,t,theta")
+            fragments = (str(src), "column 3 theta", "'Distance (cm)', a length (cm), not an angle")
     elif case == "count":
         src.write_text(_lines(T, THETA, T))
         flags = ("--columns", "t,theta")
@@ -350,6 +362,21 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
     out = tmp_path / "out"
     _one_line_error(invoke(*command[:1], str(src), *command[1:], *flags, "--out", str(out), "-q"), *fragments)
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_names_without_units_take_the_headers_units(tmp_path):
+    # --columns t,theta over a header 'Time (ms)', 'Angle (deg)': the names without units were read as s and rad
+    src = tmp_path / "log.csv"
+    src.write_text("Time (ms),Angle (deg),Position (cm)\n"
+                   + _lines(1e3 * T, np.degrees(THETA), 40 * np.sin(THETA), sep=","))
+    for columns in ("t,theta,_", "t,theta[deg],_"):
+        rec = read_record(src, spec=TableSpec(columns=tuple(columns.split(","))))
+        np.testing.assert_allclose(rec.t, T, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
+    rec = read_record(src, spec=TableSpec(columns=("t[s]", "theta", "_")))  # a declared unit is taken as declared
+    np.testing.assert_allclose(rec.t, 1e3 * T, rtol=1e-12)
+    with pytest.raises(ArtifactError, match=r"column 2 x, but the header gives it as 'Angle \(deg\)', an angle"):
+        read_record(src, spec=TableSpec(columns=("t", "x", "y")))
 
 
 def test_a_sample_written_twice_is_read_once(tmp_path):
