@@ -7,6 +7,10 @@ Frames come as :class:`YuvFrame`: the luma plane ``y`` (H, W) and the chroma pla
 no colour conversion: converting a whole 720p frame to BGR costs more than tracking it).
 Pixel centres are at integer coordinates, x right, y down.
 
+Frames are shown as players show them: a phone filmed upright stores its frames on their side with a
+display rotation (the display matrix; iPhone portrait: -90 degrees), and each frame's planes are turned
+by it (quarter turns) before anything sees them; :class:`VideoInfo`'s size is the turned one.
+
 Time ``t`` [s] is the frame's presentation timestamp (``pts * time_base``) minus the first
 frame's, so variable frame rates survive; a positive ``fps`` override gives ``index / fps``.
 Frames without a timestamp fall back to the container's average rate. ``t`` and ``index``
@@ -70,6 +74,8 @@ class VideoInfo:
     codec : str
     pix_fmt : str
         Decoded pixel format (frames in other formats are converted to yuv420p).
+    rotation_deg : int
+        Display rotation the frames are turned by, counterclockwise [deg] (0, 90, 180 or 270).
     """
 
     path: Path
@@ -80,10 +86,12 @@ class VideoInfo:
     codec: str
     pix_fmt: str
     duration_s: float = 0.0
+    rotation_deg: int = 0
 
     def to_dict(self) -> dict[str, object]:
         return {"path": str(self.path), "width": self.width, "height": self.height, "n_frames": self.n_frames,
-                "fps": self.fps, "codec": self.codec, "pix_fmt": self.pix_fmt, "duration_s": self.duration_s}
+                "fps": self.fps, "codec": self.codec, "pix_fmt": self.pix_fmt, "duration_s": self.duration_s,
+                "rotation_deg": self.rotation_deg}
 
 
 class YuvFrame:
@@ -127,14 +135,32 @@ def _plane(plane: av.video.plane.VideoPlane, h: int, w: int) -> np.ndarray:
     return buf.reshape(-1, plane.line_size)[:h, :w]
 
 
+def quarter_turns(frame: av.VideoFrame) -> int:
+    """Counterclockwise quarter turns (0-3) that show ``frame`` as players do: its display matrix's rotation.
+
+    A rotation that is no multiple of 90 degrees (never written by a camera) is not applied.
+    """
+    try:
+        deg = float(frame.rotation or 0.0)
+    except (AttributeError, TypeError, ValueError):  # no display matrix, or one PyAV cannot read
+        return 0
+    k = round(deg / 90.0)
+    return k % 4 if abs(deg - 90.0 * k) < 1.0 else 0
+
+
 def frame_planes(frame: av.VideoFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, av.VideoFrame]:
-    """Y, U, V views of a decoded frame (converted to yuv420p first if it is in another format)."""
+    """Y, U, V planes of a decoded frame (converted to yuv420p first if it is in another format), turned
+    by its display rotation (:func:`quarter_turns`; then copies, else views)."""
+    k = quarter_turns(frame)
     if frame.format.name not in _PLANAR_420:
         frame = frame.reformat(format="yuv420p")
     h, w = frame.height, frame.width
     ch, cw = (h + 1) // 2, (w + 1) // 2
     p = frame.planes
-    return _plane(p[0], h, w), _plane(p[1], ch, cw), _plane(p[2], ch, cw), frame
+    y, u, v = _plane(p[0], h, w), _plane(p[1], ch, cw), _plane(p[2], ch, cw)
+    if k:
+        y, u, v = (np.ascontiguousarray(np.rot90(plane, k)) for plane in (y, u, v))
+    return y, u, v, frame
 
 
 def _open(path: Path) -> av.container.InputContainer:
@@ -165,13 +191,28 @@ def _declared_duration(stream: av.video.stream.VideoStream) -> float:
     return float(container_us) / av.time_base if container_us else 0.0
 
 
+def _first_quarter_turns(path: Path) -> int:
+    """:func:`quarter_turns` of the first frame (PyAV gives the display matrix with the frames only)."""
+    try:
+        with av.open(str(path), mode="r") as container:
+            stream = container.streams.video[0]
+            stream.thread_count = 1
+            for frame in container.decode(stream):
+                return quarter_turns(frame)
+    except (av.error.FFmpegError, IndexError):  # nothing decodes: the reader says so
+        pass
+    return 0
+
+
 def _info(path: Path, stream: av.video.stream.VideoStream) -> VideoInfo:
     cc = stream.codec_context
     rate = stream.average_rate or stream.base_rate or stream.guessed_rate
     fmt = cc.format.name if cc.format is not None else ""
-    return VideoInfo(path=path, width=int(cc.width), height=int(cc.height), n_frames=int(stream.frames or 0),
+    k = _first_quarter_turns(path)
+    w, h = (int(cc.height), int(cc.width)) if k % 2 else (int(cc.width), int(cc.height))
+    return VideoInfo(path=path, width=w, height=h, n_frames=int(stream.frames or 0),
                      fps=float(rate) if rate else 0.0, codec=cc.name, pix_fmt=fmt,
-                     duration_s=max(0.0, _declared_duration(stream)))
+                     duration_s=max(0.0, _declared_duration(stream)), rotation_deg=90 * k)
 
 
 # The decoded frames "cover" the declared duration when they reach it within this many frame

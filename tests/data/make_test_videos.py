@@ -57,7 +57,7 @@ def write_swing_video(path: str | Path, *, width: int = 320, height: int = 240, 
                       pivot: tuple[float, float] = (160.0, 40.0), arm: float = 120.0, amplitude: float = 0.8,
                       period_s: float = 1.2, hide: tuple[int, int] | None = None, noise: float = 2.0,
                       crf: int = 18, seed: int = 0, times: np.ndarray | None = None,
-                      faststart: bool = False) -> np.ndarray:
+                      faststart: bool = False, display_rotation: int = 0) -> np.ndarray:
     """Film a marker swinging on a circular arc and encode it (H.264, yuv420p, MP4).
 
     Parameters
@@ -84,6 +84,10 @@ def write_swing_video(path: str | Path, *, width: int = 320, height: int = 240, 
         Presentation times [s] of the frames (variable frame rate); default ``i / fps``.
     faststart : bool
         Put the MP4 header (with its frame count) before the media data.
+    display_rotation : int
+        A phone's display rotation [deg, counterclockwise, a multiple of 90]: each frame is stored turned
+        the other way and the stream says to turn it back (an upright phone: -90), so a player shows the
+        scene as drawn. The returned positions are those of the scene as shown.
 
     Returns
     -------
@@ -100,7 +104,11 @@ def write_swing_video(path: str | Path, *, width: int = 320, height: int = 240, 
     time_base = Fraction(1, 1000) if times is not None else Fraction(1, int(round(fps)))
     container = av.open(str(path), mode="w", format="mp4", options={"movflags": "faststart"} if faststart else {})
     stream = container.add_stream("libx264", rate=int(round(fps)))
-    stream.width, stream.height, stream.pix_fmt = width, height, "yuv420p"
+    turns = (display_rotation // 90) % 4
+    stored = (height, width) if turns % 2 else (width, height)
+    stream.width, stream.height, stream.pix_fmt = *stored, "yuv420p"
+    if turns:
+        stream.set_display_rotation(display_rotation)
     stream.time_base = time_base
     stream.codec_context.time_base = time_base
     # no B-frames, as pendtrack's own writer: with them, x264 on AVX-512 CPUs gives a bitstream that depends
@@ -120,6 +128,8 @@ def write_swing_video(path: str | Path, *, width: int = 320, height: int = 240, 
             cov = disc_coverage(width, height, xs[i], ys[i], radius)[..., None]
             img = img * (1 - cov) + colour * cov
         img = np.clip(img + rng.normal(0, noise, img.shape), 0, 255).astype(np.uint8)
+        if turns:
+            img = np.ascontiguousarray(np.rot90(img, -turns))
         frame = av.VideoFrame.from_ndarray(img, format="bgr24")
         frame.pts = int(round(t[i] / time_base)) if times is not None else i
         frame.time_base = time_base
