@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Iterator, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from html import escape
 from pathlib import Path
@@ -55,6 +56,14 @@ class ModelFit:
     @property
     def trustworthy(self) -> bool:
         return bool(self.record.get("trustworthy", self.converged))
+
+    @property
+    def rms_over_noise(self) -> float | None:
+        """The residual over the record's filtered noise (the fit stage's facts; None when unknown): 4 or
+        more, the model misses structure in the data."""
+        models = ((self.record.get("provenance") or {}).get("extra") or {}).get("models") or {}
+        value = (models.get(self.name) or {}).get("rms_over_noise")
+        return float(value) if isinstance(value, (int, float)) else None
 
     def to_dict(self) -> dict[str, Any]:
         """``fit_<name>.json``'s content (a copy)."""
@@ -159,9 +168,10 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
 
     Parameters
     ----------
-    record : DataFrame, sequence or mapping
+    record : DataFrame, path, sequence or mapping
         From :func:`kinematics`, or any record :func:`read_record` or :func:`angle` gives
-        (differentiated with ``[kinematics]`` first, as the CLI does). Several records (a list of
+        (differentiated with ``[kinematics]`` first, as the CLI does), or the path of one such file
+        (kinematics.parquet, a measured table), read as ``pendtrack fit PATH`` reads it. Several records (a list of
         paths or DataFrames, or a mapping run id -> DataFrame, e.g. ``{"06na5": df}``; a path is named by its
         own file or folder, a DataFrame of a list ``run1``, ``run2``, ...) are
         fitted jointly (:func:`pendtrack.stages.series.series_fit_stage`): each :class:`ModelFit`'s
@@ -194,7 +204,7 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
     cfg = configure(config, options, FIT, what="pt.fit")
     names = (models,) if isinstance(models, str) else tuple(models or cfg.fit.models)
     check_models(names, source="pt.fit")
-    if not isinstance(record, pd.DataFrame):
+    if not isinstance(record, (pd.DataFrame, str, Path)):
         from pendtrack.fitting.joint import sharing_from_lists
 
         sharing = sharing_from_lists(shared=shared, per_run=per_run, per_group=per_group)
@@ -203,7 +213,8 @@ def fit(record: pd.DataFrame | Sequence[Any] | Mapping[str, Any], models: str | 
         from pendtrack.errors import FitError
 
         raise FitError("pt.fit: shared, per_run and per_group need several records")
-    with staged(record, what="pt.fit") as src:  # read as the CLI's stage reads its file
+    # a DataFrame is staged and read as the CLI's stage reads its file; a path is that file (a record or a table)
+    with (staged(record, what="pt.fit") if isinstance(record, pd.DataFrame) else nullcontext(Path(record))) as src:
         art, input_sections = kinematics_input(src, config=cfg)
         inputs = inputs_for(src)
         fits = fit_artifact(art, names, config=cfg, source=str(src), progress=progress)

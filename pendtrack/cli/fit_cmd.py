@@ -134,10 +134,18 @@ def echo_fit_summary(facts: dict[str, Any]) -> None:
     """One line per fitted model (the fit stage's facts): verdict, Xi2_min, rms, Omega0, theta_off, BIC."""
     for name, f in (facts.get("models") or {}).items():
         click.echo(f"{name}: {fit_state(f)}, Xi2_min = {_fmt(f.get('xi2_min'), '.4g')}, "
-                   f"rms = {_fmt(f.get('rms'), '.3g')} rad, "
+                   f"rms = {_fmt(f.get('rms'), '.3g')} rad{misfit_text(f)}, "
                    f"Omega0 = {_fmt(f.get('Omega0'), '.5f')} +- {_fmt(f.get('Omega0_stderr'), '.5f')} rad/s"
                    f"{'' if f.get('stderr_reliable', True) else ' (errors unreliable: the solver is not smooth there)'}, "
                    f"{offset_text(f)}BIC = {_fmt(f.get('bic'), '.1f')}, {_fmt(f.get('runtime_s'), '.1f')} s")
+
+
+def misfit_text(f: dict[str, Any]) -> str:
+    """`` (12.3 x the noise: ...)`` for a fit whose residual is structure the model misses, else ``""``."""
+    if not f.get("misses_structure"):
+        return ""
+    return (f" ({_fmt(f.get('rms_over_noise'), '.1f')} x the noise: the model misses structure in the data; "
+            "pendtrack discover looks for its cause)")
 
 
 def offset_text(f: dict[str, Any]) -> str:

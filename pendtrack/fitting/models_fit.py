@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy.signal import savgol_coeffs
 
 from pendtrack.config import FitConfig, ModelsConfig
 from pendtrack.errors import FitError
@@ -245,6 +246,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
             workers.shutdown(wait=True, cancel_futures=True)
 
     results = {n: with_axle_uncertainty(r, provenance_extra.get("zero_sigma_rad")) for n, r in results.items()}
+    noise_seen = filtered_noise(provenance_extra.get("noise_rad"), obs.savgol_window, obs.savgol_order)
     # "model" is the model asked for (file names, batch columns and the report key on it), "fitted_model"
     # the one fitted (e.g. "classic+offset")
     records = {n: {**r.to_dict(), "model": n, "fitted_model": r.model} for n, r in results.items()}
@@ -254,7 +256,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
     pool = trusted or converged
     selected = min(pool, key=lambda n: results[n].bic) if pool else None
     facts: dict[str, Any] = {
-        "models": {n: _model_facts(r) for n, r in results.items()},
+        "models": {n: _model_facts(r, noise_seen) for n, r in results.items()},
         "not_converged": [n for n in names if not results[n].converged],
         "flagged": {n: dict(results[n].flags) for n in names if results[n].flags},
         "selected": selected,
@@ -263,6 +265,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         "zero_reference": zero,
         "zero_sigma_rad": _num(provenance_extra.get("zero_sigma_rad")),
         "theta_scale_rel": scale_rel,
+        "noise_rad": _num(provenance_extra.get("noise_rad")),
     }
     if len(names) == 1:
         combined = records[names[0]]
@@ -306,18 +309,42 @@ def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
                    initial_state={n: widened(n, p) for n, p in result.initial_state.items()})
 
 
-def _model_facts(r: FitResult) -> dict[str, Any]:
-    """One model's line of the stage's facts."""
+#: A fit's residual this many times the noise the fit sees (:func:`filtered_noise`) is structure the model
+#: misses. The true model leaves 1.8 times it on bench_run's 60-s render (its tracking noise is correlated from
+#: frame to frame, which the white-noise figure leaves out); lab1's classic fit 5.2, the render's OPA fit 15.
+MISFIT_RATIO = 4.0
+
+
+def filtered_noise(noise: Any, window: Any, order: Any) -> float | None:
+    """The rms a white noise of ``noise`` [rad] keeps through the Savitzky-Golay filter the fit compares
+    data and model after (``window`` points, ``order``): ``noise sqrt(c0)``, c0 the filter's weight on the
+    centre sample [rad]. None when the noise or the window is unknown."""
+    if not isinstance(noise, (int, float)) or isinstance(noise, bool) or not math.isfinite(noise) or noise <= 0:
+        return None
+    try:
+        w, k = int(window), int(order)
+    except (TypeError, ValueError):
+        return None
+    if w <= k + 1 or w % 2 == 0:
+        return None
+    return float(noise) * math.sqrt(float(savgol_coeffs(w, k)[w // 2]))
+
+
+def _model_facts(r: FitResult, noise_seen: float | None = None) -> dict[str, Any]:
+    """One model's line of the stage's facts; ``rms_over_noise``: its residual over :func:`filtered_noise`,
+    ``misses_structure``: that ratio at :data:`MISFIT_RATIO` or more."""
     def param(name: str, what: str) -> float | None:
         return _num(getattr(r.params[name], what)) if name in r.params else None
 
+    ratio = _num(r.rms / noise_seen) if noise_seen else None
     return {"converged": r.converged, "trustworthy": r.trustworthy, "flags": dict(r.flags),
             "findings": dict(r.findings), "n_starts": r.n_starts,
             "xi2_min": _num(r.xi2_min), "rms": _num(r.rms), "bic": _num(r.bic),
             "Omega0": param("Omega0", "value"), "Omega0_stderr": param("Omega0", "stderr"),
             "fitted_model": r.model,
             "theta_off": param("theta_off", "value"), "theta_off_stderr": param("theta_off", "stderr"),
-            "runtime_s": _num(r.runtime_s), "message": r.message, "stderr_reliable": bool(r.stderr_reliable)}
+            "runtime_s": _num(r.runtime_s), "message": r.message, "stderr_reliable": bool(r.stderr_reliable),
+            "rms_over_noise": ratio, "misses_structure": ratio is not None and ratio >= MISFIT_RATIO}
 
 
 def fit_curves(results: Mapping[str, FitResult], model_objs: Mapping[str, Any], t: np.ndarray,

@@ -37,7 +37,8 @@ class KinematicsTable:
     facts : dict
         Omega0, Omega0_stderr, Omega0_raw [rad/s], Omega0_reason, theta_centre [rad] (the angle the
         analysis columns are taken about: the swing's centre when the zero is far from it, else 0), n_turning_points,
-        negative_damping_fraction, ok_fraction and the differentiation facts (``kin.info``).
+        negative_damping_fraction, ok_fraction, noise_rad [rad] (the samples' noise about the curve,
+        :func:`sample_noise`) and the differentiation facts (``kin.info``).
     """
 
     frame: pd.DataFrame
@@ -67,14 +68,37 @@ def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, op
     return replace(kin, info={**kin.info, **held})
 
 
+def centre_weight(kin: KinematicsResult) -> float:
+    """The Savitzky-Golay filter's weight c0 on the sample at its centre [1] (0 if the window is unknown).
+
+    A white noise of variance s^2 keeps ``(1 - c0) s^2`` about the smooth curve and ``c0 s^2`` in it.
+    """
+    w, order = int(kin.info.get("window_points", 0)), int(kin.info.get("order", 3))
+    return float(savgol_coeffs(w, order)[w // 2]) if w > order + 1 and w % 2 else 0.0
+
+
+def sample_noise(theta: np.ndarray, kin: KinematicsResult) -> float:
+    """The noise of the usable samples of ``theta`` about their Savitzky-Golay curve [rad] (robust, MAD).
+
+    Taken about the smooth curve, not from sample-to-sample steps: a swing sampled 10 times a period
+    steps by a third of its amplitude, which would pass for noise. Corrected by :func:`centre_weight`
+    for the part of the noise the curve follows. NaN without usable samples.
+    """
+    use = kin.ok & np.isfinite(theta) & np.isfinite(kin.theta)
+    if not use.any():
+        return math.nan
+    resid = theta[use] - kin.theta[use]
+    return 1.4826 * float(np.median(np.abs(resid - np.median(resid)))) / math.sqrt(1.0 - centre_weight(kin))
+
+
 def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str:
     """Why ``theta`` holds no swing, or "" when it does.
 
     A record holds no swing when its usable samples stay within the band a rest stays in (half
     their range at most :data:`~pendtrack.kinematics.rest.BAND_SIGMAS` times their noise about the
-    Savitzky-Golay curve, or :data:`~pendtrack.kinematics.rest.BAND_QUANTA` of a quantised record's
-    steps: a constant, a static marker's jitter, an encoder flickering by a step), or when it moves
-    but never turns back (no turning point: a ramp, a column of times).
+    Savitzky-Golay curve, :func:`sample_noise`, or :data:`~pendtrack.kinematics.rest.BAND_QUANTA` of
+    a quantised record's steps: a constant, a static marker's jitter, an encoder flickering by a
+    step), or when it moves but never turns back (no turning point: a ramp, a column of times).
 
     Parameters
     ----------
@@ -90,14 +114,7 @@ def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str
         return ""
     raw = theta[use]
     half_range = 0.5 * float(np.ptp(raw))
-    # the noise about the smooth curve, not from sample-to-sample steps: a swing sampled 10 times a period
-    # steps by a third of its amplitude, which would pass for noise and hide it
-    resid = raw - kin.theta[use]
-    # a sample's residual about the curve keeps 1 - c0 of the noise's variance, c0 the filter's weight on it
-    w, order = int(kin.info.get("window_points", 0)), int(kin.info.get("order", 3))
-    c0 = float(savgol_coeffs(w, order)[w // 2]) if w > order + 1 and w % 2 else 0.0
-    noise = 1.4826 * float(np.median(np.abs(resid - np.median(resid)))) / math.sqrt(1.0 - c0)
-    band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(raw))
+    band = max(BAND_SIGMAS * sample_noise(theta, kin), BAND_QUANTA * smallest_step(raw))
     if half_range <= band:
         return (f"it stays within {half_range:.3g} rad of {0.5 * (raw.max() + raw.min()):.4g} rad over "
                 f"{raw.size} samples, inside its own noise band ({band:.3g} rad)")
@@ -164,6 +181,11 @@ def kinematics_table(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, option
         "negative_damping_fraction": None if math.isnan(ana.negative_damping_fraction)
         else ana.negative_damping_fraction,
         "ok_fraction": float(np.mean(kin.ok)) if kin.ok.size else 0.0,
+        "noise_rad": _finite_or_none(sample_noise(np.asarray(theta, dtype=float), kin)),
         **kin.info,
     }
     return KinematicsTable(frame, facts)
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None

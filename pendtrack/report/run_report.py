@@ -93,8 +93,10 @@ def drift_statement(run: RunData) -> tuple[str | None, Note | None]:
 
 def fit_notes(run: RunData) -> list[Note]:
     """One note per fit that is not trustworthy (not converged, parameters flagged: fit.json ``flags``),
-    and one, neutral, per fit that found an effect absent (fit.json ``findings``)."""
+    and one, neutral, per fit that found an effect absent (fit.json ``findings``) or leaves a residual
+    that is structure, not noise (the fit stage's ``misses_structure``)."""
     notes = []
+    stage = (run.extra("fit") or {}).get("models") or {}
     for name, fit in run.fits.items():
         if not isinstance(fit, dict):
             continue
@@ -109,6 +111,12 @@ def fit_notes(run: RunData) -> list[Note]:
         found = sorted(set((fit.get("findings") or {}).values()))
         if found:
             notes.append(Note(f"The {name} fit: {'; '.join(found)}.", kind="info"))
+        facts = stage.get(name) if isinstance(stage, dict) else None
+        if isinstance(facts, dict) and facts.get("misses_structure"):
+            ratio = D.finite_number(facts.get("rms_over_noise"))
+            times = f"{ratio:.1f} times" if ratio is not None else "several times"
+            notes.append(Note(f"The {name} fit leaves a residual {times} the noise of the record: the model misses "
+                              "structure in the data (pendtrack discover looks for its cause).", kind="info"))
     return notes
 
 

@@ -44,8 +44,8 @@ from pendtrack.errors import ConfigError
 from pendtrack.tables.clock_times import clock_lines
 from pendtrack.tables.labelled_values import labelled_lines
 from pendtrack.tables.rounded_times import digit_unit
-from pendtrack.tables.units import (ALL_UNITS, ANGLE_UNITS, LENGTH_UNITS, RATE_UNITS, TIME_UNITS, ColumnName, columns_hint,
-                                    parse_column_name, roles, split_unit)
+from pendtrack.tables.units import (ALL_UNITS, ANGLE_UNITS, LENGTH_UNITS, RATE_UNITS, TIME_UNITS, ColumnName,
+                                    columns_hint, parse_column_name, roles, split_unit)
 
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf)$", re.IGNORECASE)

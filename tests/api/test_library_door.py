@@ -107,6 +107,18 @@ def test_out_writes_what_the_cli_writes(record: dict[str, Path], door_fit: pt.Fi
 
 
 @pytest.mark.integration
+def test_a_path_is_fitted_as_the_cli_fits_it(record: dict[str, Path], cli_fit: Path, door_fit: pt.FitSet) -> None:
+    # pt.fit("kinematics.parquet") took the string for several records, one per character: "/: the record is
+    # given twice"
+    by_path = pt.fit(str(cli_fit / "kinematics.parquet"), "standard", config=record["config"])
+    assert _without_run_dependent(by_path["standard"].to_dict()) == _without_run_dependent(
+        json.loads((cli_fit / "fit_standard.json").read_text(encoding="utf-8")))
+    # the residual against the record's noise reaches the library door too (the model of the data: near 1)
+    assert by_path["standard"].rms_over_noise == pytest.approx(door_fit["standard"].rms_over_noise)
+    assert 0.5 < by_path["standard"].rms_over_noise < 2.0
+
+
+@pytest.mark.integration
 def test_user_errors_are_the_cli_one_line_errors(record: dict[str, Path], tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="starts") as exc:
         pt.fit(pt.read_record(record["table"]), "standard", starts=0)

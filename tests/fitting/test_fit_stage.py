@@ -155,3 +155,25 @@ def test_bad_composed_model_is_one_line_error(kin_file, tmp_path, name, fragment
     lines = [line for line in res.output.splitlines() if line.strip()]
     assert res.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], res.output
     assert not (tmp_path / "bad" / "fit.json").exists()
+
+
+@pytest.mark.parametrize("shaken", [False, True])
+def test_a_fit_that_misses_structure_says_so(tmp_path, shaken):
+    # a converged fit said "converged" and nothing else when its residual was 15 times the noise (the OPA fit of
+    # bench_run's render, lab1's classic fit at 5): converged is not "describes the data". A support shaken at
+    # 1.7 Hz moves theta by 3 mrad beside 1 mrad of noise, which no model of the catalogue has
+    t, theta = swing("standard", STANDARD, seconds=20.0, theta0=2.5, noise=1e-3, seed=3)
+    if shaken:
+        theta = theta + 3e-3 * np.sin(2 * np.pi * 1.7 * t)
+    angle = angle_file(tmp_path / "angle.parquet", t, theta)
+    kin = kinematics_stage(angle, out_dir=tmp_path, config=Config(), progress=False)
+    assert kin.facts["noise_rad"] == pytest.approx(1e-3, rel=0.1)  # the samples' noise about the curve
+    res = invoke("fit", str(kin.path), "--model", "standard", "--starts", "3", "--workers", "1", "-q",
+                 "--out", str(tmp_path))
+    facts = read_artifact(tmp_path / "fit.parquet", "fit").provenance.extra["models"]["standard"]
+    if shaken:  # 3 mrad of a sine (2.1 rms) through the 25-point filter, against 1 mrad x sqrt(c0) = 0.3 mrad of noise
+        assert facts["misses_structure"] and facts["rms_over_noise"] > 4.0
+        assert "x the noise: the model misses structure in the data" in res.output
+    else:  # the model the data came from leaves its noise, filtered: a ratio near 1
+        assert not facts["misses_structure"] and facts["rms_over_noise"] < 1.5
+        assert "the model misses structure" not in res.output
