@@ -133,10 +133,18 @@ def _names_columns(cols: list[ColumnName | None] | None) -> bool:
     return len(used) >= 2 and any(c.role == "t" for c in used)
 
 
+def _unbracketed(text: str) -> str:
+    """``text`` without one pair of enclosing brackets or parentheses (``(s)`` -> ``s``)."""
+    if len(text) >= 2 and (text[0], text[-1]) in (("(", ")"), ("[", "]")):
+        return text[1:-1].strip()
+    return text
+
+
 def _with_units(fields: list[str], units: list[str]) -> list[str]:
-    """``fields`` with the units of a units line (Logger Pro's text export: ``s  °  rad/s``) added to
-    those that have none; ``fields`` as they are if ``units`` is no units line."""
-    units = [u.strip() for u in units]
+    """``fields`` with the units of a units line (Logger Pro's text export: ``s  °  rad/s``; a spreadsheet's
+    ``(s)  (°)`` or ``[s]  [deg]``) added to those that have none; ``fields`` as they are if ``units`` is no
+    units line."""
+    units = [_unbracketed(u.strip().strip('"').strip()) for u in units]
     if len(units) != len(fields) or not any(u.lower() in ALL_UNITS for u in units):
         return fields
     if any(" " in u or len(u) > 8 or _names_columns(_parse_all([u, "t"])) for u in units):

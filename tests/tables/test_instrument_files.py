@@ -312,6 +312,18 @@ def test_logger_pro_text_export(tmp_path):
     assert rec.info["columns"] == ["t[s]", "theta[deg]"]
 
 
+@pytest.mark.parametrize("units", ["(s),(°)", "[ms],[deg]"])
+def test_a_spreadsheets_units_line_in_brackets(tmp_path, units):
+    # a units line under the names, each unit in its brackets as a spreadsheet user writes them: read without its
+    # units, the degrees were taken for radians ("it looks like degrees")
+    src = tmp_path / "sheet.csv"
+    scale = 1e3 if "ms" in units else 1.0
+    src.write_text("Time,Angle\n" + units + "\n" + _rows(scale * T, np.degrees(THETA), sep=","))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=ATOL)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
 # --- Logger Pro's and Graphical Analysis' own files ------------------------------------------------
 
 def _vernier_xml(runs: list[tuple[str, list[tuple[str, str, list[str]]]]]) -> str:
