@@ -3,9 +3,10 @@
 Usage::
 
     nice -n 19 .venv/bin/python benchmarks/bench_coverage.py --records 400 --models classic,opa,fractional \\
-        [--seconds 20] [--fps 120] [--starts K] [--workers 1] [--out coverage.json]
+        [--seconds 20] [--fps 120] [--starts K] [--workers 1] [--first-seed 0] [--out coverage.json]
 
-For each model, ``--records`` seeded synthetic records (seed s of model m: record ``m-s``):
+For each model, ``--records`` seeded synthetic records (seed s of model m: record ``m-s``; seeds from
+``--first-seed``, so that a method chosen on one set of records can be checked on others):
 
 * **truth** drawn per seed around the paper's values (:data:`CENTRES`, each parameter uniform
   within :data:`SPREAD` of its centre), so the coverage is of a neighbourhood, not of one point;
@@ -31,6 +32,8 @@ the sandwich; ``profile``: ``stderr_low`` below the value and ``stderr_high`` ab
 facing the truth; ``u_paper``; ``bootstrap`` when ``--bootstrap`` > 0) the summary reports the
 share of intervals ``value +- z sigma`` (z = 1 and 1.96) that cover the truth, its binomial
 standard error ``sqrt(c (1 - c) / n)``, and the RMS of ``(value - truth) / sigma``; and the same for
+``interval``: fit.json's own ``interval68`` and ``interval95``, which hold the truth or not, their
+sigma for the rms of z the 68 % interval's half-width on the side facing the truth; and the same for
 the interval fit.json says to quote (``quote``). Only trustworthy fits count (converged, no
 parameter flagged): a user is told not to quote the others; how many there were is reported.
 
@@ -73,7 +76,7 @@ NOISE_RAD = 3e-3  # rms tracking noise [rad]
 AR_SHARE = 0.52
 AR_RHO_120 = 0.62
 LEVELS = ((68, 1.0), (95, 1.959964))  # nominal coverage [%] and the Gaussian half-width in sigmas
-METHODS = ("stderr", "profile", "u_paper", "bootstrap", "quote")
+METHODS = ("stderr", "profile", "u_paper", "bootstrap", "interval", "quote")
 STATE = ("theta0", "omega0")
 
 
@@ -142,6 +145,7 @@ def fit_record(task: tuple[str, int, Mapping[str, Any]]) -> dict[str, Any]:
         p = res.params[name]
         params[name] = {"value": p.value, "stderr": p.stderr, "stderr_low": p.stderr_low,
                         "stderr_high": p.stderr_high, "u_paper": p.u_paper, "stderr_bootstrap": p.stderr_bootstrap,
+                        "interval68": list(p.interval68), "interval95": list(p.interval95),
                         "quote": res.quote().get(name)}
     return {"key": f"{model}-{seed}", "model": model, "seed": seed, "settings": dict(settings),
             "truth": rec["truth"], "converged": bool(res.converged), "trustworthy": bool(res.trustworthy),
@@ -152,22 +156,41 @@ def fit_record(task: tuple[str, int, Mapping[str, Any]]) -> dict[str, Any]:
 def _json_safe(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     return obj
 
 
 def sigma_of(p: Mapping[str, Any], method: str, truth: float) -> float:
-    """The method's sigma of one fitted parameter, on the side facing ``truth`` for the profile [unit]."""
+    """The method's sigma of one fitted parameter, on the side facing ``truth`` for the profile and the
+    interval (there: the 68 % interval's half-width on that side) [unit]."""
     if method == "quote":
         method = p["quote"]
         if method is None:
             return math.nan
     if method == "profile":
         s = p["stderr_low"] if p["value"] > truth else p["stderr_high"]
+    elif method == "interval":
+        lo, hi = p.get("interval68") or (None, None)
+        if lo is None or hi is None:
+            return math.nan
+        s = p["value"] - lo if p["value"] > truth else hi - p["value"]
     else:
         s = p["stderr_bootstrap" if method == "bootstrap" else method]
     return math.nan if s is None else float(s)
+
+
+def covers(p: Mapping[str, Any], method: str, truth: float, level: int, half: float) -> bool:
+    """Whether the method's ``level`` % interval of one fitted parameter holds ``truth``: ``value +- half
+    sigma``, or for ``interval`` the fit's own ``[low, high]``."""
+    if method == "quote":
+        method = p["quote"]
+    if method == "interval":
+        lo, hi = p[f"interval{level}"]
+        return lo is not None and hi is not None and bool(lo <= truth <= hi)
+    return bool(abs(p["value"] - truth) <= half * sigma_of(p, method, truth))
 
 
 def coverage(lines: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
@@ -191,18 +214,19 @@ def coverage(lines: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
         for name in recs[0]["truth"]:
             table[name] = {}
             for method in METHODS:
-                z = []
+                z, held = [], []
                 for r in ok:
                     p, truth = r["params"][name], r["truth"][name]
                     s = sigma_of(p, method, truth)
                     if math.isfinite(s) and s > 0 and p["value"] is not None:
                         z.append((p["value"] - truth) / s)
+                        held.append([covers(p, method, truth, level, half) for level, half in LEVELS])
                 if not z:
                     continue
                 za = np.abs(np.asarray(z))
                 row: dict[str, Any] = {"n": int(za.size)}
-                for level, half in LEVELS:
-                    c = float(np.mean(za <= half))
+                for k, (level, _) in enumerate(LEVELS):
+                    c = float(np.mean([h[k] for h in held]))
                     row[f"cover{level}"] = c
                     row[f"se{level}"] = math.sqrt(c * (1.0 - c) / za.size)
                 row["rms_z"] = float(np.sqrt(np.mean(za * za)))
@@ -228,12 +252,14 @@ def read_lines(path: Path, settings: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def run(models: Sequence[str], records: int, settings: Mapping[str, Any], *, jsonl: Path, workers: int,
-        echo: Any = None) -> list[dict[str, Any]]:
-    """Fit every record not yet in ``jsonl``, appending each as it finishes; all lines of these records."""
+        echo: Any = None, first_seed: int = 0) -> list[dict[str, Any]]:
+    """Fit every record (seeds ``first_seed`` on) not yet in ``jsonl``, appending each as it finishes; all
+    lines of these records."""
     from pendtrack.parallel import process_pool, worker_count
 
     done = {line["key"]: line for line in read_lines(jsonl, settings)}
-    tasks = [(m, s, dict(settings)) for m in models for s in range(records) if f"{m}-{s}" not in done]
+    seeds = range(first_seed, first_seed + records)
+    tasks = [(m, s, dict(settings)) for m in models for s in seeds if f"{m}-{s}" not in done]
     jsonl.parent.mkdir(parents=True, exist_ok=True)
 
     def keep(line: dict[str, Any]) -> None:
@@ -251,7 +277,7 @@ def run(models: Sequence[str], records: int, settings: Mapping[str, Any], *, jso
         with process_pool(n) as pool:
             for line in pool.map(fit_record, tasks):
                 keep(line)
-    return [done[f"{m}-{s}"] for m in models for s in range(records)]
+    return [done[f"{m}-{s}"] for m in models for s in seeds]
 
 
 def table_text(summary: Mapping[str, Any]) -> str:
@@ -282,11 +308,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--starts", type=int, default=0, help="starts per fit (0: STARTS of the model; the fit stage uses 150)")
     ap.add_argument("--bootstrap", type=int, default=0, help="block-bootstrap refits per fit (0: none)")
     ap.add_argument("--workers", type=int, default=1, help="processes over records (0: all cores)")
+    ap.add_argument("--first-seed", type=int, default=0,
+                    help="the records' seeds start here (another --first-seed: records no method was chosen on)")
     ap.add_argument("--out", type=Path, default=Path("coverage.json"))
     args = ap.parse_args(argv)
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     unknown = [m for m in models if m not in CENTRES]
-    if unknown or args.records < 1 or args.seconds <= 0 or args.fps <= 0 or args.starts < 0:
+    if unknown or args.records < 1 or args.seconds <= 0 or args.fps <= 0 or args.starts < 0 or args.first_seed < 0:
         fail(f"bad arguments (models {unknown or models}, records {args.records}, seconds {args.seconds}, "
              f"fps {args.fps}, starts {args.starts})")
     settings = {"seconds": args.seconds, "fps": args.fps, "starts": args.starts, "bootstrap": args.bootstrap}
@@ -297,7 +325,8 @@ def main(argv: list[str] | None = None) -> None:
               f"{line['runtime_s']:6.1f} s", flush=True)
 
     try:
-        lines = run(models, args.records, settings, jsonl=jsonl, workers=args.workers, echo=echo)
+        lines = run(models, args.records, settings, jsonl=jsonl, workers=args.workers, echo=echo,
+                    first_seed=args.first_seed)
     except ValueError as exc:
         fail(str(exc))
     from bench_run import cpu_model  # this folder's: the CPU named as the other benchmarks name it
@@ -305,6 +334,7 @@ def main(argv: list[str] | None = None) -> None:
     summary = coverage(lines)
     payload = {"command": " ".join(["benchmarks/bench_coverage.py", *(argv if argv is not None else sys.argv[1:])]),
                "cpu": cpu_model(), "cores": os.cpu_count(), "settings": settings, "records": args.records,
+               "first_seed": args.first_seed,
                "noise": {"rms_rad": NOISE_RAD, "ar_share": AR_SHARE, "ar_rho_120fps": AR_RHO_120},
                "coverage": summary}
     tmp = args.out.with_suffix(".json.tmp")

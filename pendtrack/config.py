@@ -109,7 +109,10 @@ class FitConfig:
     start_spread: float = 0.5  # starts drawn within +-spread (relative) around the estimates
     omega0_spread: float = 0.01  # starts' Omega0 within +-spread (relative) of the model-free estimate
     seed: int = 0  # seed of the start draws (and of the bootstrap)
-    profile: bool = True  # profile-likelihood standard errors per side (stderr_low, stderr_high)
+    # profile likelihood: standard errors per side (stderr_low, stderr_high) and, for a model with memory, the
+    # scan along beta's valley that widens the intervals to quote (interval68, interval95); off, those are the
+    # sandwich's value +- z stderr, which miss the truth more often than they say for the memory parameters
+    profile: bool = True
     bootstrap: int = 0  # moving-block bootstrap refits for stderr_bootstrap; 0 = none
     start_budget: int = 30  # each start's fit of the whole record: at most this many Jacobians' worth of simulations
     ladder: bool = True  # each start fits a growing window (three periods, doubled up to the record): no phase slips

@@ -40,12 +40,20 @@ class ModelFit:
 
     @property
     def params(self) -> pd.DataFrame:
-        """One row per fitted parameter: value, stderr, u_paper (units as the parameter's), flags."""
+        """One row per fitted parameter: value, stderr, the 95 % interval to quote (low95, high95), u_paper
+        (units as the parameter's), flags."""
         flags = self.record.get("flags") or {}
-        rows = {name: {"value": p.get("value"), "stderr": p.get("stderr"), "u_paper": p.get("u_paper"),
-                       "flags": str(flags.get(name, ""))}
+        intervals = self.record.get("interval95") or {}
+
+        def end(name: str, k: int) -> float | None:
+            ends = intervals.get(name)
+            return ends[k] if isinstance(ends, list) and len(ends) == 2 else None
+
+        rows = {name: {"value": p.get("value"), "stderr": p.get("stderr"), "low95": end(name, 0),
+                       "high95": end(name, 1), "u_paper": p.get("u_paper"), "flags": str(flags.get(name, ""))}
                 for name, p in (self.record.get("params") or {}).items()}
-        df = pd.DataFrame.from_dict(rows, orient="index", columns=["value", "stderr", "u_paper", "flags"])
+        df = pd.DataFrame.from_dict(rows, orient="index",
+                                    columns=["value", "stderr", "low95", "high95", "u_paper", "flags"])
         df.index.name = "parameter"
         return df
 

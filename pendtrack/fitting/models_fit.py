@@ -37,6 +37,7 @@ from pendtrack.fitting.leastsq.cost import Observation
 from pendtrack.fitting.leastsq.samples import axle_shares, check_record
 from pendtrack.fitting.predict import predict
 from pendtrack.fitting.result import FitResult, ParamEstimate, _num
+from pendtrack.fitting.uncertainty import Z95
 
 log = logging.getLogger(__name__)
 
@@ -292,7 +293,8 @@ def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
     * The axle off along the radius scales theta: each parameter's shift under that scale
       (``stderr_scale``, computed in the fit from ``theta_scale_rel``) is added to its own.
 
-    ``stderr``, ``stderr_low`` and ``stderr_high`` include them (``stderr_naive`` and
+    ``stderr``, ``stderr_low``, ``stderr_high`` and the intervals (at their own number of standard
+    errors) include them (``stderr_naive`` and
     ``stderr_bootstrap`` stay the fit's own).
     """
     zs = float(zero_sigma) if isinstance(zero_sigma, (int, float)) and not isinstance(zero_sigma, bool) else 0.0
@@ -303,10 +305,18 @@ def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
         if extra == 0.0:
             return p
         return replace(p, stderr=float(np.hypot(p.stderr, extra)), stderr_low=float(np.hypot(p.stderr_low, extra)),
-                       stderr_high=float(np.hypot(p.stderr_high, extra)))
+                       stderr_high=float(np.hypot(p.stderr_high, extra)),
+                       interval68=_widened(p.value, p.interval68, extra),
+                       interval95=_widened(p.value, p.interval95, Z95 * extra))
 
     return replace(result, params={n: widened(n, p) for n, p in result.params.items()},
                    initial_state={n: widened(n, p) for n, p in result.initial_state.items()})
+
+
+def _widened(value: float, interval: tuple[float, float], extra: float) -> tuple[float, float]:
+    """``interval`` about ``value`` with ``extra`` added to each side's half-width in quadrature."""
+    lo, hi = interval
+    return (float(value - np.hypot(value - lo, extra)), float(value + np.hypot(hi - value, extra)))
 
 
 #: A fit's residual this many times the noise the fit sees (:func:`filtered_noise`) is structure the model

@@ -11,8 +11,9 @@ plus extra keys: ``initial_state`` (theta0, omega0 in the same {value, stderr, u
 ``stderr_bootstrap``, ``stderr_low``, ``stderr_high``, ``stderr_scale``, ``estimates``, ``covariance``,
 ``start_costs``, ``message``, ``flags``, ``findings``, ``trustworthy``,
 ``measurement`` (the model's measurement terms, e.g. ``["offset"]``; their parameters, e.g.
-``theta_off``, are in ``params`` like any other), ``quote`` (:func:`quote_method`: per parameter
-the uncertainty a user should quote, ``"stderr"``, or null where there is none).
+``theta_off``, are in ``params`` like any other), ``interval68`` and ``interval95`` (per parameter
+``[low, high]``), ``quote`` (:func:`quote_method`: per parameter the uncertainty a user should quote,
+``"interval"`` -- ``interval68`` and ``interval95`` --, ``"stderr"``, or null where there is none).
 Non-finite numbers are written as ``null``.
 
 Flags and findings
@@ -281,23 +282,27 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
             f"trades off against G2")
 
 
-#: The uncertainty fit.json tells a user to quote (:func:`quote_method`), from benchmarks/bench_coverage.py (40
-#: seeded 20-s records per model with the render's tracking noise): the sandwich's 95 % intervals cover the truth
-#: 92-100 % of the time for Omega0 and every damping parameter of classic, OPA and fractional; the profile sigmas'
-#: only 87-89 % for classic's C0, C3 and p -- where another parameter sits on its optimiser bound (C0 at 0) the
-#: profile is a constrained one and comes out 9-40x below the sandwich -- and u_paper, the spread of the starts,
-#: 0-33 % for classic and OPA (their starts meet at one minimum).
-QUOTE = "stderr"
+#: The uncertainty fit.json tells a user to quote (:func:`quote_method`), from benchmarks/bench_coverage.py (400
+#: seeded records per model with the render's tracking noise): the sandwich's intervals cover the truth as they
+#: should for classic and OPA (20-s records); for the fractional model its 95 % intervals cover 88-95 % (60-s
+#: records), the scans' widened ones 93-97.5 % (:func:`pendtrack.fitting.leastsq.profile_interval.scan_intervals`).
+#: The profile sigmas come out 9-40x below the sandwich where another parameter sits on its optimiser bound (C0
+#: at 0: a constrained profile), and u_paper, the spread of the starts, covers 0-33 % for classic and OPA (their
+#: starts meet at one minimum).
+QUOTE = "interval"
 
 
 def quote_method(p: "ParamEstimate") -> str | None:
-    """Which uncertainty of ``p`` a user should quote: :data:`QUOTE` where it is finite and positive, else None.
+    """Which uncertainty of ``p`` a user should quote: :data:`QUOTE` (``interval68`` and ``interval95``) where
+    they are finite, else ``"stderr"`` where that is finite and positive (a joint fit), else None.
 
     A fixed parameter (not fitted) has none.
     """
     if p.fixed or not (math.isfinite(p.stderr) and p.stderr > 0):
         return None
-    return QUOTE
+    if all(math.isfinite(v) for v in (*p.interval68, *p.interval95)):
+        return QUOTE
+    return "stderr"
 
 
 def _num(x: Any) -> float | None:
@@ -339,6 +344,10 @@ class ParamEstimate:
         The shift of ``value`` under theta's scale uncertainty (the axle's radius uncertainty,
         :func:`pendtrack.fitting.uncertainty.scale_shift`) [same unit]; 0 when none was given.
         The fit stage adds it to ``stderr`` in quadrature.
+    interval68, interval95 : tuple of float
+        ``(low, high)``: the intervals that hold the truth 68 % and 95 % of the time, the ones to
+        quote (:data:`QUOTE`; :func:`pendtrack.fitting.leastsq.profile_interval.scan_intervals`)
+        [same unit]; NaN where not computed (a fixed parameter, a joint fit).
     """
 
     value: float
@@ -352,6 +361,8 @@ class ParamEstimate:
     estimate: float = math.nan
     fixed: bool = False
     stderr_scale: float = 0.0
+    interval68: tuple[float, float] = (math.nan, math.nan)
+    interval95: tuple[float, float] = (math.nan, math.nan)
 
     def core(self) -> dict[str, float | None]:
         return {"value": _num(self.value), "stderr": _num(self.stderr), "u_paper": _num(self.u_paper)}
@@ -525,6 +536,8 @@ class FitResult:
             "stderr_low": {k: _num(v.stderr_low) for k, v in all_params.items()},
             "stderr_high": {k: _num(v.stderr_high) for k, v in all_params.items()},
             "stderr_scale": {k: _num(v.stderr_scale) for k, v in all_params.items()},
+            "interval68": {k: [_num(x) for x in v.interval68] for k, v in all_params.items()},
+            "interval95": {k: [_num(x) for x in v.interval95] for k, v in all_params.items()},
             "estimates": {k: _num(v.estimate) for k, v in all_params.items()},
             "fixed": [k for k, v in all_params.items() if v.fixed],
             "covariance": {"names": list(self.fitted_names),
@@ -614,6 +627,8 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
                              u_region=float(unc.u_region[j]), stderr_naive=float(unc.stderr_naive[j]),
                              stderr_bootstrap=float(unc.stderr_bootstrap[j]), stderr_low=float(unc.stderr_low[j]),
                              stderr_high=float(unc.stderr_high[j]),
+                             interval68=(float(unc.interval68[0][j]), float(unc.interval68[1][j])),
+                             interval95=(float(unc.interval95[0][j]), float(unc.interval95[1][j])),
                              estimate=float(setup.estimates.get(name, math.nan)),
                              stderr_scale=float(scale[j]) if scale is not None else 0.0)
 

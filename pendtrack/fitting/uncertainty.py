@@ -22,6 +22,11 @@ Three numbers per parameter:
     correlates ~25 samples; a slightly wrong model leaves residuals at the pendulum's period),
     so the textbook ``s^2 (J^T J)^-1`` would be too small by a large factor.
 
+The intervals to quote: at 68 % ``value +- stderr``; at 95 % ``value +- 1.96 stderr``, widened
+for a model with memory by profile scans (every parameter's own, and beta's valley that the others
+follow; :mod:`pendtrack.fitting.leastsq.profile_interval`): the memory parameters' estimates have
+tails along the beta-G2-p_f valley that the curvature at the best fit does not show.
+
 Optionally the profile-likelihood sigmas on each side (:func:`pendtrack.fitting.leastsq.profile.profile_sigmas`)
 and a moving-block bootstrap (:func:`bootstrap_problems`: refits of data rebuilt as best-fit
 model plus moving blocks of the residuals).
@@ -45,6 +50,8 @@ from pendtrack.config import FitConfig
 from pendtrack.fitting.leastsq.cost import channels
 from pendtrack.fitting.leastsq.local_fits import StartOutcome, run_tasks
 from pendtrack.fitting.leastsq.profile import profile_sigmas
+from pendtrack.fitting.leastsq.profile_interval import (SCAN_ALONG, ProfileScan, one_se_rise, scan_intervals,
+                                                        scan_valley)
 from pendtrack.fitting.leastsq.problem import FD_REL, STATE_NAMES, FitProblem
 
 if TYPE_CHECKING:
@@ -52,6 +59,7 @@ if TYPE_CHECKING:
 
 HAC_KERNELS = ("toeplitz", "bartlett")
 SMOOTH_RATIO = 1.3  # the sandwich may change by this factor when the finite-difference steps grow 10x
+Z95 = 1.959964  # the 95 % interval's half-width in standard errors (two-sided Gaussian)
 NULL_COLUMN = 1e-12  # a Jacobian column this much weaker than the strongest changes no residual (an absent term)
 
 
@@ -555,6 +563,9 @@ class Uncertainty:
         The standard errors the plausibility flags judge by: for a model with forward
         sensitivities, the larger of ``stderr`` and the sandwich on the sensitivity Jacobian (the
         finite differences' limit of zero step); else ``stderr``.
+    interval68, interval95 : tuple of ndarray
+        ``(low, high)``: the 68 % and 95 % intervals to quote: ``value +- z stderr``, the 95 % one
+        widened for a model with memory (:func:`pendtrack.fitting.leastsq.profile_interval.scan_intervals`).
     """
 
     covariance: np.ndarray
@@ -569,6 +580,8 @@ class Uncertainty:
     stderr_bootstrap: np.ndarray
     step_spread: float
     stderr_judged: np.ndarray
+    interval68: tuple[np.ndarray, np.ndarray]
+    interval95: tuple[np.ndarray, np.ndarray]
 
     @property
     def reliable(self) -> bool:
@@ -590,7 +603,8 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     found : Search
         The starts (their end points and costs give ``u_paper``).
     options : FitConfig
-        Uses ``accept_ratio``, ``profile`` and ``bootstrap``.
+        Uses ``accept_ratio``, ``profile`` (the profile sigmas, and the valley scan of the intervals) and
+        ``bootstrap``.
     seed : int
         The bootstrap's seed is ``seed + 1``.
     workers : int
@@ -643,10 +657,38 @@ def assess(problem: FitProblem, best: StartOutcome, found: Search, *, options: F
     if options.bootstrap > 0:
         block = max(lag, problem.observation.savgol_window, 1)
         se_boot = _bootstrap(problem, x, options.bootstrap, block, seed, workers, on_progress)
+    dof = r.size - x.size
+    scans: dict[int, ProfileScan] = {}
+    if options.profile and SCAN_ALONG in problem.names and x.size > 1:  # memory's valley: the 95 % intervals' tails
+        scans = _valley_scans(problem, x, float(best.cost), cov, se_naive, dof, pool)
+    valley = next((k for k in scans if problem.names[k] == SCAN_ALONG), None)
+    interval68 = scan_intervals({}, x=x, cost=float(best.cost), cov=cov, naive=se_naive, dof=dof, z=1.0)
+    interval95 = scan_intervals(scans, x=x, cost=float(best.cost), cov=cov, naive=se_naive, dof=dof, z=Z95,
+                                valley=valley)
     return Uncertainty(covariance=cov, hac_lag=int(lag), stderr=stderr, stderr_naive=se_naive,
                        u_paper=u_paper, u_region=region_halfwidth(jac, best.cost, options.accept_ratio),
                        n_accepted=int(accepted.sum()), stderr_low=se_low, stderr_high=se_high,
-                       stderr_bootstrap=se_boot, step_spread=step_spread, stderr_judged=judged)
+                       stderr_bootstrap=se_boot, step_spread=step_spread, stderr_judged=judged,
+                       interval68=interval68, interval95=interval95)
+
+
+def _valley_scans(problem: FitProblem, x: np.ndarray, cost: float, cov: np.ndarray, naive: np.ndarray, dof: int,
+                  pool: Executor | None) -> dict[int, ProfileScan]:
+    """The profile scan (:func:`pendtrack.fitting.leastsq.profile_interval.scan_valley`) of every fitted
+    parameter but the initial state, in ``pool`` where given (the same scans as in this process)."""
+    stderr = stderr_from_cov(cov)
+    tasks = []
+    for k, name in enumerate(problem.names):
+        if name in STATE_NAMES:
+            continue
+        rise = one_se_rise(cost, dof, float(stderr[k]), float(naive[k]))
+        tasks.append((k, (problem, x, cost, cov, name, rise)))
+    if pool is not None and len(tasks) > 1:
+        futures = [(k, pool.submit(scan_valley, *args)) for k, args in tasks]
+        found = [(k, f.result()) for k, f in futures]
+    else:
+        found = [(k, scan_valley(*args)) for k, args in tasks]
+    return {k: scan for k, scan in found if scan is not None}
 
 
 def _bootstrap(problem: FitProblem, x: np.ndarray, n_boot: int, block: int, seed: int, workers: int,

@@ -9,15 +9,17 @@ from collections.abc import Mapping
 from html import escape
 from typing import Any
 
-from pendtrack.report.html import Note, Section, Table
+from pendtrack.report.html import Note, Section, Table, fmt
 from pendtrack.report.load import RunData
 
 _UNCERTAINTY_NOTE = (
-    "Two uncertainties are given for every parameter. <b>stderr</b> is the statistical standard error "
-    "(autocorrelation-consistent), the one to use for error bars and comparisons. <b>u<sub>paper</sub></b> is "
-    "the paper's eq. paramuncertain: half the range of the parameter over the multistart fits with "
-    "Ξ² ≤ 5/4 Ξ²<sub>min</sub>, a measure of how well the cost pins the parameter down rather than a standard "
-    "deviation. u<sub>r</sub> = stderr/|value|."
+    "Three uncertainties are given for every parameter. <b>stderr</b> is the statistical standard error "
+    "(autocorrelation-consistent) at the best fit. The <b>95 % interval</b> is the one to quote: value ± 1.96 "
+    "stderr, widened for a model with memory where the cost's valley over β holds other near-equal minima (the "
+    "likelihood-ratio set), so its two sides can differ; fit_&lt;model&gt;.json also gives the 68 % one. "
+    "<b>u<sub>paper</sub></b> is the paper's eq. paramuncertain: half the range of the parameter over the "
+    "multistart fits with Ξ² ≤ 5/4 Ξ²<sub>min</sub>, a measure of how well the cost pins the parameter down "
+    "rather than a standard deviation. u<sub>r</sub> = stderr/|value|."
 )
 
 
@@ -54,13 +56,25 @@ def meaning(name: str) -> str:
     return {"theta0": "fitted initial angle", "omega0": "fitted initial angular velocity"}.get(name, "")
 
 
-def _param_rows(entries: Mapping[str, Any]) -> list[tuple[Any, ...]]:
+def interval_text(value: float | None, interval: Any) -> str | None:
+    """A 95 % interval ``[low, high]`` about ``value`` as its two sides, ``-b / +a``; None if unknown."""
+    if value is None or not isinstance(interval, (list, tuple)) or len(interval) != 2:
+        return None
+    low, high = (number(v) for v in interval)
+    if low is None or high is None:
+        return None
+    return f"−{fmt(value - low, 3)} / +{fmt(high - value, 3)}"
+
+
+def _param_rows(entries: Mapping[str, Any], intervals: Any) -> list[tuple[Any, ...]]:
     rows = []
+    intervals = intervals if isinstance(intervals, Mapping) else {}
     for name, entry in entries.items():
         e = entry if isinstance(entry, Mapping) else {"value": entry}
         value, stderr, u_paper = (number(e.get(k)) for k in ("value", "stderr", "u_paper"))
         u_r = f"{100 * stderr / abs(value):.3g} %" if value and stderr is not None else None
-        rows.append((str(name), unit(str(name)), value, stderr, u_paper, u_r, meaning(str(name))))
+        rows.append((str(name), unit(str(name)), value, stderr, interval_text(value, intervals.get(name)), u_paper,
+                     u_r, meaning(str(name))))
     return rows
 
 
@@ -149,10 +163,10 @@ def parameters_section(run: RunData) -> Section:
                                                   "(run the fit stage).", kind="missing"),))
     blocks: list[Any] = [quality_table(run), Note(_UNCERTAINTY_NOTE, trusted=True)]
     for name, fit in run.fits.items():
-        rows = _param_rows(fit.get("params") or {})
+        rows = _param_rows(fit.get("params") or {}, fit.get("interval95"))
         state = fit.get("initial_state")
         if isinstance(state, Mapping):
-            rows += _param_rows(state)
+            rows += _param_rows(state, fit.get("interval95"))
         window = fit.get("window")
         wtext = ""
         if isinstance(window, list) and len(window) == 2 and None not in window:
@@ -164,10 +178,11 @@ def parameters_section(run: RunData) -> Section:
             msg = (f" Fitted as <b>{escape(str(fitted))}</b>" + (": θ's zero was not measured, so it is fitted as "
                    "θ<sub>off</sub> (θ<sub>obs</sub> = θ + θ<sub>off</sub>)." if "theta_off" in (fit.get("params") or {})
                    else ".") + msg)
-        blocks.append(Table(("parameter", "unit", "value", "stderr", "u_paper", "u_r", "meaning"), tuple(rows),
+        blocks.append(Table(("parameter", "unit", "value", "stderr", "95 % interval", "u_paper", "u_r", "meaning"),
+                            tuple(rows),
                             caption=f"<b>{escape(str(name))}</b> model ({'converged' if fit.get('converged') else 'NOT converged'})."
                                     f"{wtext}{msg}",
-                            text_columns=(0, 1, 6), key=f"params-{name}"))
+                            text_columns=(0, 1, 4, 7), key=f"params-{name}"))
     relations, both = find_relations(run.combined)
     table = _relations(relations, both) if relations is not None else None
     if table is not None:

@@ -72,8 +72,9 @@ def test_door_fits_equal_the_cli_files_to_the_last_digit(cli_fit: Path, door_fit
         written = json.loads((cli_fit / f"fit_{name}.json").read_text(encoding="utf-8"))
         assert _without_run_dependent(door_fit[name].to_dict()) == _without_run_dependent(written), name
         params = door_fit[name].params
-        assert list(params.columns) == ["value", "stderr", "u_paper", "flags"]
+        assert list(params.columns) == ["value", "stderr", "low95", "high95", "u_paper", "flags"]
         assert params.loc["Omega0", "value"] == written["params"]["Omega0"]["value"]  # exact, not approximate
+        assert [params.loc["Omega0", "low95"], params.loc["Omega0", "high95"]] == written["interval95"]["Omega0"]
     combined = json.loads((cli_fit / "fit.json").read_text(encoding="utf-8"))
     assert door_fit.selected == combined["selected"] and door_fit.selected in ("standard", "classic")
 

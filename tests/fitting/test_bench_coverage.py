@@ -72,6 +72,22 @@ def test_coverage_counts_intervals_that_hold_the_truth():
     assert "u_paper" not in out["params"]["Omega0"]  # no finite sigma: not counted
 
 
+def test_an_interval_counts_by_its_own_ends():
+    # asymmetric intervals: [value - 2, value + 0.5] stderr at 68 %, [value - 3, value + 1] at 95 %
+    lines = []
+    for i, z in enumerate([1.5, -0.8, -2.5, 0.3]):  # value - truth in stderr units
+        line = _line("fractional", i, z)
+        p = line["params"]["Omega0"]
+        v = p["value"]
+        p.update(interval68=[v - 0.02, v + 0.005], interval95=[v - 0.03, v + 0.01], quote="interval")
+        lines.append(line)
+    row = bench.coverage(lines)["fractional"]["params"]["Omega0"]["interval"]
+    # truth = value - 0.01 z: held by the 68 % interval for z in [-0.5, 2] (1.5, 0.3), by the 95 % one for
+    # z in [-1, 3] (1.5, -0.8, 0.3)
+    assert row["cover68"] == pytest.approx(0.5) and row["cover95"] == pytest.approx(0.75)
+    assert bench.coverage(lines)["fractional"]["params"]["Omega0"]["quote"] == row
+
+
 def test_two_records_fit_append_and_resume(tmp_path):
     settings = {"seconds": 6.0, "fps": 120.0, "starts": 1, "bootstrap": 0}
     jsonl = tmp_path / "c.jsonl"
@@ -80,7 +96,9 @@ def test_two_records_fit_append_and_resume(tmp_path):
     assert len(jsonl.read_text().splitlines()) == 2
     for ln in lines:
         assert set(ln["params"]) == set(bench.CENTRES["opa"])
-        assert ln["quote"]["Omega0"] == "stderr" and ln["params"]["C4"]["stderr"] > 0
+        assert ln["quote"]["Omega0"] == "interval" and ln["params"]["C4"]["stderr"] > 0
+        lo, hi = ln["params"]["C4"]["interval95"]  # no memory: the sandwich's 1.96 standard errors
+        assert (hi - lo) / 2 == pytest.approx(1.959964 * ln["params"]["C4"]["stderr"], rel=1e-9)
     again = bench.run(["opa"], 2, settings, jsonl=jsonl, workers=1)  # nothing left to fit
     assert len(jsonl.read_text().splitlines()) == 2
     assert json.dumps(again, sort_keys=True) == json.dumps(lines, sort_keys=True)

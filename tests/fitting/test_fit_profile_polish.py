@@ -3,10 +3,9 @@ Brent's method, so that the basin it ends in does not hang on where the best sta
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 import pytest
+from stand_in_problem import StandInProblem
 
 from pendtrack.fitting.leastsq import profile
 from pendtrack.fitting.leastsq.local_fits import StartOutcome
@@ -20,27 +19,7 @@ def profile_cost(beta: float) -> float:
     return min(SHALLOW[1] + (beta - SHALLOW[0]) ** 2, DEEP[1] + (beta - DEEP[0]) ** 2)
 
 
-@dataclass(frozen=True)
-class _Problem:
-    """Stands in for a FitProblem: beta and one other parameter, bounds [0, 1]."""
-
-    fixed: dict = field(default_factory=dict)
-    names: tuple = ("beta", "G2")
-    t_end: float = 40.0
-
-    @property
-    def lower(self) -> np.ndarray:
-        return np.zeros(len(self.names) - len(self.fixed))
-
-    @property
-    def upper(self) -> np.ndarray:
-        return np.ones(len(self.names) - len(self.fixed))
-
-    def with_fixed(self, fixed: dict) -> "_Problem":
-        return _Problem(fixed=dict(fixed))
-
-
-def _fake_local_fit(problem: _Problem, x0: np.ndarray, window_ends, *, index: int = 0, max_nfev=None,
+def _fake_local_fit(problem: StandInProblem, x0: np.ndarray, window_ends, *, index: int = 0, max_nfev=None,
                     central: bool = False) -> StartOutcome:
     """The inner fits at fixed beta reach the profile exactly; the free fit descends in its basin."""
     if "beta" in problem.fixed:
@@ -58,7 +37,7 @@ def test_the_polish_ends_in_the_deeper_basin_from_any_start(monkeypatch, beta_st
     monkeypatch.setattr(profile, "local_fit", _fake_local_fit)
     x = np.array([beta_start, 0.5])
     best = StartOutcome(index=3, x0=x, x=x, cost=profile_cost(beta_start), success=True, nfev=10, message="start")
-    out = profile.profile_polish(_Problem(), best, "beta")
+    out = profile.profile_polish(StandInProblem(), best, "beta")
     # Brent's tolerance is PROFILE_XTOL on beta; the fake free fit lands on the basin's centre
     assert out.x[0] == pytest.approx(DEEP[0], abs=1e-9)
     assert out.cost == pytest.approx(DEEP[1], rel=1e-12)
@@ -69,5 +48,5 @@ def test_the_polish_is_never_worse_than_its_start(monkeypatch):
     monkeypatch.setattr(profile, "local_fit", _fake_local_fit)
     x = np.array([DEEP[0], 0.5])
     best = StartOutcome(index=0, x0=x, x=x, cost=DEEP[1] - 1e-3, success=True, nfev=10, message="start")
-    out = profile.profile_polish(_Problem(), best, "beta")
+    out = profile.profile_polish(StandInProblem(), best, "beta")
     assert out.cost == best.cost and np.array_equal(out.x, best.x)

@@ -53,12 +53,17 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
               "message", "provenance",
               "flags", "findings", "trustworthy",
               "measurement", "fitted_model",  # issue #14: the model's measurement terms, the model fitted
-              "quote"}  # issue #29: the uncertainty to quote per parameter
+              "quote", "interval68", "interval95"}  # issue #29: the intervals to quote per parameter
     assert set(data) == set(FIT_JSON_KEYS) | extras
     assert data["model"] == "standard" and data["converged"] is True and data["n_starts"] == 3
     assert set(data["params"]) == set(STANDARD)
     assert all(set(v) == {"value", "stderr", "u_paper"} for v in data["params"].values())
     assert abs(data["params"]["Omega0"]["value"] / 5.0 - 1) < 5e-4
+    # no memory, no valley to scan: the intervals to quote are the sandwich's value +- 1 and 1.96 stderr
+    for name, p in data["params"].items():
+        lo, hi = data["interval95"][name]
+        assert data["quote"][name] == "interval" and lo < p["value"] < hi
+        assert (hi - lo) / 2 == pytest.approx(1.959964 * p["stderr"], rel=1e-9)
     same = json.loads((out / "fit_standard.json").read_text())
     assert same["params"] == data["params"]
     fit = read_artifact(out / "fit.parquet", "fit").data
