@@ -1,7 +1,7 @@
 """The 95 % intervals of a model with memory: the sandwich's, widened by profile scans.
 
 The fractional model's estimates have tails along its beta-G2-p_f valley that the curvature at
-the best fit does not show (benchmarks/bench_coverage.py, 400 seeded 60-s records: the sandwich's
+the best fit does not show (benchmarks/bench_coverage.py, 800 seeded 60-s records: the sandwich's
 95 % intervals hold the truth 88-95 % of the time; beta estimated high carries G1 and p_f high
 with it, beta estimated low carries G2 low; the valley's profile is flatter on one side than the
 other and can hold a second, near-equal minimum).
