@@ -62,12 +62,14 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=12, help="4, 8 or 12 runs")
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "pendtrack-bench-series"))
+    ap.add_argument("--model", default="classic",
+                    help="the model fitted (default classic; e.g. classic+angle_gain: a gain of theta per run)")
     args = ap.parse_args(argv)
     kinematics, truth = track_series(Path(args.cache) / f"series_{args.runs}", args.runs)
-    print(f"joint fit of {args.runs} rendered runs (20 s, 640x360, 120 fps), classic, default config; "
+    print(f"joint fit of {args.runs} rendered runs (20 s, 640x360, 120 fps), {args.model}, default config; "
           f"{cpu_model()}, {os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f}")
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [str(Path(sys.executable).parent / "pendtrack"), "fit", *map(str, kinematics), "--model", "classic",
+        cmd = [str(Path(sys.executable).parent / "pendtrack"), "fit", *map(str, kinematics), "--model", args.model,
                "--out", tmp, "-q"]
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -76,7 +78,7 @@ def main(argv: list[str] | None = None) -> None:
         if proc.returncode not in (0, 1):
             print(proc.stderr.strip().splitlines()[-1])
             return
-        rec = json.loads((Path(tmp) / "fit_classic.json").read_text())
+        rec = json.loads(next(Path(tmp).glob("fit_*.json")).read_text())
     print(f"  joint fit {rec['runtime_s']:.1f} s: converged={rec['converged']} trustworthy={rec['trustworthy']} "
           f"({rec['message']}), {rec['n_params']} parameters, {rec['n_starts']} starts")
     rows = [("C0", rec["params"]["C0"], truth[next(iter(truth))]["C0"])]
@@ -88,6 +90,10 @@ def main(argv: list[str] | None = None) -> None:
     for label, est, true in rows:
         print(f"  {label:>20} {est['value']:.6g} +- {est['stderr']:.2g}  true {true:.6g}  "
               f"z {(est['value'] - true) / est['stderr']:+.2f}")
+    gains = {run: r["params"]["theta_gain"] for run, r in rec["runs"].items() if "theta_gain" in r["params"]}
+    if gains:
+        print("  theta_gain per run: " + ", ".join(f"{run} {g['value']:+.1e} +- {g['stderr']:.0e}"
+                                                 for run, g in gains.items()))
     print(f"  C0 stderr_ratio {rec['stderr_ratio']['C0']:.4f} (bar 1.5/sqrt(n) = {1.5 / args.runs ** 0.5:.3f})")
 
 

@@ -139,6 +139,10 @@ class FitConfig:
     # `run`: auto = when the zero is not a measured rest (angle.parquet's zero_reference "vertical", or a
     # plain table), always, never
     offset: str = "auto"
+    # a tracked video's frames in which the marker moved less than this many pixels (its turning points) are
+    # left out of the cost, with every sample whose filter window reaches them: a compressed video loses the
+    # marker's sub-pixel motion there (fitting.leastsq.samples.slow_frames); 0 = keep them
+    slow_motion_px: float = 1.0
     # Jacobians of the Levenberg-Marquardt starts and the refine step: "sensitivity" = the forward
     # sensitivity equations integrated with the RK4 trajectory (models without memory; the others keep
     # finite differences), "fd" = finite differences (one simulation per parameter). The sandwich
@@ -384,6 +388,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "fit.hopeless_ratio_memory": (_ge(0),),
     "fit.merge_tol": (_ge(0),),
     "fit.workers": (_ge(0),),
+    "fit.slow_motion_px": (_ge(0),),
     "batch.scheduler": (_NAME,),
     "batch.workers": (_ge(0),),
     "batch.threads_per_worker": (_ge(1),),

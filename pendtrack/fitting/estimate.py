@@ -35,6 +35,8 @@ THETA_OFF_SPREAD = 0.005  # start half-width of theta_off [rad], at least: a few
 # Levenberg-Marquardt step finds it from anywhere in the range
 K_SCALE_THETA_ERROR = 0.03  # start half-width of k_scale: a 3 % error of theta at the record's amplitude A
 # (k A^2 = 0.03), the size of a lens or projection error a calibration would have caught beyond that
+THETA_GAIN_SCALE = 1e-3  # scale of theta_gain: an axle 0.1 % of the radius off along it, or a codec's smoothing
+# (renders at crf 20 read theta 1-3e-4 small); its starts lie within +-3 times this about 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +103,7 @@ def estimate(model: Any, record: Record, *, options: FitConfig, model_options: M
     for given in (initial, fixed):  # a warm start's or a held zero offset is the model's (fixed wins)
         if "theta_off" in meas_start and given and "theta_off" in given:
             theta_off_hat = float(given["theta_off"])
-    problem = build_problem(model, record.t, record.theta, record.omega, ok=mask, cost=options.cost,
+    problem = build_problem(model, record.t, record.theta, record.omega, ok=record.cost_mask(), cost=options.cost,
                             omega0_hat=summary.omega0_hat, observation=record.observation, memory_s=memory_s,
                             full_history=full_history, simulator=simulator, method=method, source=record.source,
                             max_step_s=model_options.max_step_s, jacobian_method=options.jacobian,
@@ -141,7 +143,8 @@ def measurement_estimates(model: Any, summary: DataSummary) -> tuple[dict[str, f
     """Data-derived start values and scales of a model's measurement parameters (empty without them).
 
     ``theta_off`` [rad]: the centre of the oscillation (:attr:`DataSummary.theta_center`, from
-    the turning points), its standard error as the scale; ``k_scale`` [1/rad^2]: 0 (no scale
+    the turning points), its standard error as the scale; ``theta_gain`` [1]: 0, its scale
+    :data:`THETA_GAIN_SCALE`; ``k_scale`` [1/rad^2]: 0 (no scale
     error), its scale a 1 % angle error at the record's amplitude (a third of the start half-width).
     """
     values: dict[str, float] = {}
@@ -150,6 +153,9 @@ def measurement_estimates(model: Any, summary: DataSummary) -> tuple[dict[str, f
     if "theta_off" in names:
         values["theta_off"] = float(summary.theta_center)
         scales["theta_off"] = float(summary.theta_center_se)
+    if "theta_gain" in names:
+        values["theta_gain"] = 0.0
+        scales["theta_gain"] = THETA_GAIN_SCALE
     if "k_scale" in names:
         values["k_scale"] = 0.0
         scales["k_scale"] = K_SCALE_THETA_ERROR / 3.0 / max(summary.amplitude, 1e-3) ** 2

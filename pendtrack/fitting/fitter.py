@@ -71,7 +71,8 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
               extra_starts: Sequence[Mapping[str, float]] = (), seed: int | None = None,
               workers: int | None = None, simulator: Simulator | None = None, method: str = "auto",
               on_progress: Callable[[int], None] | None = None, source: str = "the data",
-              pool: ProcessPool | None = None, theta_scale_rel: float = 0.0) -> FitResult:
+              pool: ProcessPool | None = None, theta_scale_rel: float = 0.0,
+              cost_out: np.ndarray | None = None) -> FitResult:
     """Fit ``model`` to a record by output error, with the paper's uncertainties and better ones.
 
     Parameters
@@ -126,6 +127,9 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
         Relative uncertainty of theta's scale [1] (the angle stage's ``theta_scale_rel``: the
         axle's radius uncertainty); each parameter's first-order shift under it is
         ``ParamEstimate.stderr_scale`` (:func:`pendtrack.fitting.uncertainty.scale_shift`).
+    cost_out : ndarray of bool, optional
+        Samples left out of the cost (:attr:`pendtrack.fitting.leastsq.samples.Record.cost_out`: a
+        compressed video's slow frames, :func:`~pendtrack.fitting.leastsq.samples.slow_frames`).
 
     Returns
     -------
@@ -143,7 +147,7 @@ def fit_model(model: Any, t: np.ndarray, theta: np.ndarray, omega: np.ndarray, *
     workers = options.workers if workers is None else workers
     check_options(options, source=source)
     record = Record(t, theta, omega, alpha=alpha, ok=ok, window=window, observation=observation or Observation(),
-                    source=source)
+                    source=source, cost_out=cost_out)
     setup = estimate(model, record, options=options, model_options=model_options, fixed=fixed, initial=initial,
                      simulator=simulator, method=method)
     return fit_setup(setup, options=options, model_options=model_options, seed=seed, workers=workers,

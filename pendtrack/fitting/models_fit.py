@@ -34,9 +34,9 @@ from pendtrack.errors import FitError
 from pendtrack.fitting.cross_model import cross_model_relations
 from pendtrack.fitting.fitter import fit_model
 from pendtrack.fitting.leastsq.cost import Observation
-from pendtrack.fitting.leastsq.samples import axle_shares, check_record
+from pendtrack.fitting.leastsq.samples import axle_shares, check_record, slow_frames
 from pendtrack.fitting.predict import predict
-from pendtrack.fitting.result import FitResult, ParamEstimate, _num
+from pendtrack.fitting.result import FitResult, ParamEstimate, _num, in_range
 from pendtrack.fitting.uncertainty import Z95
 
 log = logging.getLogger(__name__)
@@ -231,6 +231,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
     obs = observation_from(provenance_extra, provenance_config, t, source=source)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=source)  # fail before any progress bar
     scale_rel = axle_shares(provenance_extra)["theta_scale_rel"]  # the axle's radius uncertainty over the radius [1]
+    slow = slow_frames(dict(provenance_extra), omega, min_px=options.slow_motion_px)
     results: dict[str, FitResult] = {}
     # the models' searches (and their profile sigmas) share one set of worker processes, started now (their
     # imports and kernels load while the first model's estimates run) rather than one set per model
@@ -241,7 +242,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
                 results[name] = fit_model(model_objs[name], t, theta, omega, options=options,
                                           model_options=model_options, alpha=alpha, ok=ok, observation=obs,
                                           on_progress=advance, source=source, pool=workers,
-                                          theta_scale_rel=scale_rel)
+                                          theta_scale_rel=scale_rel, cost_out=slow)
     finally:
         if workers is not None:
             workers.shutdown(wait=True, cancel_futures=True)
@@ -266,6 +267,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         "zero_reference": zero,
         "zero_sigma_rad": _num(provenance_extra.get("zero_sigma_rad")),
         "theta_scale_rel": scale_rel,
+        "slow_frames": int(slow.sum()) if slow is not None else 0,
         "noise_rad": _num(provenance_extra.get("noise_rad")),
     }
     if len(names) == 1:
@@ -306,8 +308,8 @@ def with_axle_uncertainty(result: FitResult, zero_sigma: Any) -> FitResult:
             return p
         return replace(p, stderr=float(np.hypot(p.stderr, extra)), stderr_low=float(np.hypot(p.stderr_low, extra)),
                        stderr_high=float(np.hypot(p.stderr_high, extra)),
-                       interval68=_widened(p.value, p.interval68, extra),
-                       interval95=_widened(p.value, p.interval95, Z95 * extra))
+                       interval68=in_range(name, _widened(p.value, p.interval68, extra)),
+                       interval95=in_range(name, _widened(p.value, p.interval95, Z95 * extra)))
 
     return replace(result, params={n: widened(n, p) for n, p in result.params.items()},
                    initial_state={n: widened(n, p) for n, p in result.initial_state.items()})

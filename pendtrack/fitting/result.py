@@ -46,6 +46,7 @@ import numpy as np
 
 from pendtrack.errors import FitError
 from pendtrack.fitting.estimate import _floor
+from pendtrack.models import PARAMS
 
 if TYPE_CHECKING:
     from pendtrack.config import FitConfig, ModelsConfig
@@ -196,8 +197,9 @@ def split_findings(terms: tuple[str, ...], names: tuple[str, ...], x: np.ndarray
     its amplitude at 0, ``beta`` at 0, ``t0`` more than :data:`T0_MAX_RECORDS` record lengths before the
     record or on its optimiser bound there) is absent, or is the simpler term it becomes there. That
     parameter and the ones the data then cannot measure get a finding in place of a flag. An amplitude
-    or order is at its limit 0 when on its optimiser bound there. A value merely consistent with the
-    limit, or small, is not at it: correlated dampings (C1, C0, C2) can each lie within
+    or order is at its limit 0 when on its optimiser bound there; an order whose limit makes the term a
+    simpler one (``beta``) also when within one standard error of it. An amplitude merely consistent with
+    the limit, or small, is not at it: correlated dampings (C1, C0, C2) can each lie within
     two standard errors of 0 while together they are far from it.
 
     Parameters
@@ -235,6 +237,11 @@ def split_findings(terms: tuple[str, ...], names: tuple[str, ...], x: np.ndarray
         if on_bound:
             err = f" +- {se:.2g}" if math.isfinite(se) else ""
             return f"{lim.param} = {v:.3g}{err}"
+        if lim.becomes and lim.value == 0.0 and math.isfinite(se) and abs(v) <= se:
+            # an order whose limit makes the term a simpler one (beta -> 0: a plain power-law drag) and whose value
+            # is within one standard error of it: what "not determined" (se > |value|) means there. On its bound
+            # or a hair inside it, the same verdict
+            return f"{lim.param} = {v:.3g} +- {se:.2g}, within one standard error of 0"
         return ""
 
     absent: dict[str, tuple[Limit, str]] = {}  # term -> the limit it reached, and how
@@ -290,6 +297,21 @@ def _memory_as_inertia(names: tuple[str, ...], x: np.ndarray, stderr: np.ndarray
 #: at 0: a constrained profile), and u_paper, the spread of the starts, covers 0-33 % for classic and OPA (their
 #: starts meet at one minimum).
 QUOTE = "interval"
+
+
+def in_range(name: str, interval: tuple[float, float]) -> tuple[float, float]:
+    """``interval`` cut to the physical range of the parameter ``name`` (its :class:`ParamSpec`'s bounds).
+
+    An interval about a value at or near a bound reaches past it by symmetry (beta = 0 +- 0.047 reads
+    [-0.047, 0.047]); the values beyond cannot be the parameter's, so they are no part of its interval.
+    A parameter without a declared range (the initial state) keeps its interval.
+    """
+    lo, hi = float(interval[0]), float(interval[1])
+    spec = PARAMS.get(name)
+    if spec is None:
+        return lo, hi
+    # NaN stays NaN: np.clip would keep it, min/max would not
+    return float(np.clip(lo, spec.low, spec.high)), float(np.clip(hi, spec.low, spec.high))
 
 
 def quote_method(p: "ParamEstimate") -> str | None:
@@ -627,8 +649,8 @@ def build_result(setup: Setup, found: Search, best: StartOutcome, unc: Uncertain
                              u_region=float(unc.u_region[j]), stderr_naive=float(unc.stderr_naive[j]),
                              stderr_bootstrap=float(unc.stderr_bootstrap[j]), stderr_low=float(unc.stderr_low[j]),
                              stderr_high=float(unc.stderr_high[j]),
-                             interval68=(float(unc.interval68[0][j]), float(unc.interval68[1][j])),
-                             interval95=(float(unc.interval95[0][j]), float(unc.interval95[1][j])),
+                             interval68=in_range(name, (unc.interval68[0][j], unc.interval68[1][j])),
+                             interval95=in_range(name, (unc.interval95[0][j], unc.interval95[1][j])),
                              estimate=float(setup.estimates.get(name, math.nan)),
                              stderr_scale=float(scale[j]) if scale is not None else 0.0)
 

@@ -143,6 +143,10 @@ def _offset(theta, c):  # noqa: ANN001, ANN201
     return theta + c[0]
 
 
+def _angle_gain(theta, c):  # noqa: ANN001, ANN201
+    return theta * (1.0 + c[0])
+
+
 def _angle_scale(theta, c):  # noqa: ANN001, ANN201
     return theta * (1.0 + c[0] * theta * theta)
 
@@ -229,6 +233,12 @@ CATALOGUE: dict[str, Term] = {
         Term("offset", "measurement",
              (_p("theta_off", "rad", -INF, INF, True, True, "offset of the measured angle's zero"),),
              "theta_obs = theta + theta_off", "measurement", fn=_offset, shift=True),
+        # a gain is told from the initial amplitude only by the swing's nonlinearity (the period's dependence
+        # on the amplitude): determined on large swings, not on small ones
+        Term("angle_gain", "measurement",
+             (_p("theta_gain", "1", -1.0, INF, True, True,
+                 "relative error of the measured angle's scale (an axle off along the radius, a codec's smoothing)"),),
+             "theta_obs = theta (1 + theta_gain)", "measurement", fn=_angle_gain),
         Term("angle_scale", "measurement",
              (_p("k_scale", "1/rad^2", -INF, INF, True, True, "cubic error of the measured angle's scale"),),
              "theta_obs = theta (1 + k_scale theta^2)", "measurement", fn=_angle_scale),

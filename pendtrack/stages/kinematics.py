@@ -78,7 +78,8 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     sections |= {**config.sections("kinematics"), "input": rec.info}
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
                       extra={**kin.info, "zero_reference": rec.zero_reference,
-                             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel})
+                             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel,
+                             "marker_radius_px": rec.marker_radius_px})
     return Artifact(frame, prov, rec.source), sections
 
 
@@ -116,7 +117,9 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         (:attr:`pendtrack.tables.Record.zero_reference`; `fit` and `run` fit it as ``theta_off`` when it was not
         measured); ``zero_sigma_rad``: its uncertainty from the axle's (:attr:`pendtrack.tables.Record.zero_sigma_rad`;
         part of theta_off's stderr); ``theta_scale_rel``: theta's relative scale uncertainty from the axle's (part of every
-        parameter's stderr).
+        parameter's stderr); ``marker_radius_px``: the marker's distance from the fitted axle [px] (None
+        without a fitted circle), from which the fit finds the frames too slow for a compressed video
+        (:func:`pendtrack.fitting.leastsq.samples.slow_frames`).
 
     Raises
     ------
@@ -138,7 +141,8 @@ def kinematics_stage(angle: str | Path, *, out_dir: str | Path, config: Config, 
         return StageOutput((out,), skipped=True, facts=dict(record.get("extra", {})))
     result = kinematics_table(rec.t, rec.theta, rec.ok, options=config.kinematics, source=angle)
     facts = {**result.facts, "input": rec.info, "zero_reference": rec.zero_reference,
-             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel}
+             "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel,
+             "marker_radius_px": rec.marker_radius_px}
     write_artifact(result.frame, out, "kinematics",
                    provenance=Provenance(stage="kinematics", config=sections, inputs=inputs, extra=facts))
     return StageOutput((out,), facts=facts)

@@ -27,7 +27,7 @@ from pendtrack.batch.runcode import run_names
 from pendtrack.config import Config
 from pendtrack.errors import FitError
 from pendtrack.fitting.joint import fit_joint_models, resolve_scopes
-from pendtrack.fitting.leastsq.samples import Record, axle_shares
+from pendtrack.fitting.leastsq.samples import Record, axle_shares, slow_frames
 from pendtrack.fitting.models_fit import check_models, model_json_name, observation_from
 from pendtrack.stages import StageOutput, several_records, up_to_date
 from pendtrack.stages.fit import COMBINED, fit_sections, write_fits
@@ -102,7 +102,9 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
         obs = observation_from(dict(prov.extra or {}), dict(prov.config or {}), t, source=str(art.path))
         records[run] = Record(t, df["theta"].to_numpy(float), df["omega"].to_numpy(float),
                               alpha=df["alpha"].to_numpy(float), ok=df["ok"].to_numpy(bool), observation=obs,
-                              source=str(art.path), **axle_shares(prov.extra or {}))
+                              source=str(art.path), **axle_shares(prov.extra or {}),
+                              cost_out=slow_frames(dict(prov.extra or {}), df["omega"].to_numpy(float),
+                                                   min_px=config.fit.slow_motion_px))
         zeros[run] = (prov.extra or {}).get("zero_reference")
     fits = fit_joint_models(names, records, zeros=zeros, sharing=sharing, labels=dict(zip(runs, labels)),
                             options=config.fit, model_options=config.models, source=paths[0])

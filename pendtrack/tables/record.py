@@ -156,6 +156,20 @@ class Record:
         return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
 
     @property
+    def marker_radius_px(self) -> float | None:
+        """The marker's distance from the fitted axle [px] (angle.parquet's ``circle``, passed on by
+        kinematics.parquet as ``marker_radius_px``); None without a fitted circle (a given axle, a table)."""
+        prov = self.provenance
+        extra = (prov.extra or {}) if prov is not None and self.kind in ("angle", "kinematics") else {}
+        if self.kind == "kinematics":
+            value = extra.get("marker_radius_px")
+        else:
+            circle = extra.get("circle")
+            value = circle.get("radius") if isinstance(circle, dict) else None
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0
+        return float(value) if ok else None
+
+    @property
     def zero_sigma_rad(self) -> float | None:
         """The standard uncertainty [rad] of theta's zero from the axle's sideways uncertainty (:meth:`axle_share`)."""
         return self.axle_share("zero_sigma_rad")

@@ -18,9 +18,9 @@ from pendtrack.cli import cli
 from pendtrack.config import Config, FitConfig
 from pendtrack.errors import FitError
 from pendtrack.fitting import fit_model
-from pendtrack.fitting.result import plausibility_flags, plausible_limits, split_findings
+from pendtrack.fitting.result import ParamEstimate, in_range, plausibility_flags, plausible_limits, split_findings
 from pendtrack.models import get_model
-from pendtrack.fitting.models_fit import fit_problems
+from pendtrack.fitting.models_fit import fit_problems, with_axle_uncertainty
 from pendtrack.stages.kinematics import kinematics_stage
 
 STANDARD = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002}
@@ -182,6 +182,14 @@ def test_an_effect_at_the_limit_where_it_vanishes_is_a_finding_not_a_flag():
     # a value merely small, or consistent with 0, is not at the limit: still a flag where undetermined
     flags, findings = split(np.array([5.0, 0.3, -10.0, 0.002, 0.4, 1.3, 2.5, 1e-4]))
     assert findings == {} and "G2" in flags
+    # beta a hair inside its bound 0 and within one standard error of it (the demo's fractional fit once its slow
+    # frames left the cost: 0.022 +- 0.056): the same finding as on the bound, not "not determined"
+    flags, findings = split(np.array([5.0, 0.3, -10.0, 0.02, 0.022, 1.3, 2.5, 1e-4]))
+    assert "beta" not in flags and findings["beta"].startswith("the data show no memory")
+    assert "within one standard error of 0" in findings["beta"] and "power-law drag" in findings["beta"]
+    # two standard errors from 0: measured, no finding
+    flags, findings = split(np.array([5.0, 0.3, -10.0, 0.02, 0.11, 1.3, 2.5, 1e-4]))
+    assert "beta" not in findings and "beta" not in flags
 
 
 def test_the_memory_term_as_an_added_mass_flags_omega0():
@@ -357,3 +365,23 @@ def test_omega0_stays_below_the_records_nyquist_frequency(monkeypatch):
     # the record is a linear swing at 3.944 rad/s; the pendulum's sin(theta) lengthens the period of a 0.21 rad
     # swing by theta0^2/16, so the fitted small-angle Omega0 is higher by that (0.28 %), to within the noise
     assert res.values["Omega0"] == pytest.approx(3.944 * (1 + 0.21 ** 2 / 16), rel=1e-3)
+
+
+def test_a_quoted_interval_ends_at_its_parameters_physical_range():
+    # beta = 0 (the data show no memory) +- 0.047 reached to -0.047, a value no memory can take (issue #29)
+    assert in_range("beta", (-0.047, 0.047)) == (0.0, 0.047)
+    assert in_range("G2", (-0.01, 0.02)) == (0.0, 0.02)
+    assert in_range("beta", (0.93, 1.08)) == (0.93, 1.0)  # beta's range ends at 1 (an added mass)
+    assert in_range("Omega0", (5.1, 5.2)) == (5.1, 5.2)  # inside: untouched
+    assert in_range("theta_off", (-3.0, 3.0)) == (-3.0, 3.0)  # the offset has no bound
+    assert in_range("theta0", (-9.0, 9.0)) == (-9.0, 9.0)  # the initial state has no declared range
+    lo, hi = in_range("G2", (float("nan"), 0.02))
+    assert np.isnan(lo) and hi == 0.02  # an interval the fit could not give stays unknown
+
+    # the axle's share widens the intervals; a parameter at its bound 0 still does not reach below it
+    base = fit_model(get_model("standard"), *_record(seconds=8.0), options=replace(FAST, n_starts=1))
+    c2 = ParamEstimate(value=0.0, stderr=0.004, u_paper=0.0, u_region=0.0, stderr_naive=0.003,
+                       stderr_scale=0.002, interval68=(0.0, 0.004), interval95=(0.0, 0.0078))
+    widened = with_axle_uncertainty(replace(base, params={**base.params, "C2": c2}), 0.0)
+    lo, hi = widened.params["C2"].interval95
+    assert lo == 0.0 and hi == pytest.approx(np.hypot(0.0078, 1.959964 * 0.002))

@@ -28,6 +28,7 @@ THETA0 = 2.5  # [rad], released from rest
 TRUTH = {"Omega0": 5.0, "C1": 0.02, "C0": 0.01, "C2": 0.005}
 OFFSET = 0.01  # [rad], a camera zero 10 mrad off
 K_SCALE = 0.1 / THETA0**2  # [1/rad^2]: the angle 10 % too large at 2.5 rad
+GAIN = -2e-3  # the angle read 0.2 % small at every amplitude (an axle 0.2 % of the radius off along it)
 
 
 def options() -> FitConfig:
@@ -158,6 +159,21 @@ def test_angle_scale_recovered():
     wrong = fit(get_model("standard"), rec)
     assert abs(wrong.params["Omega0"].value / TRUTH["Omega0"] - 1.0) > 1e-3
     assert wrong.rms > 10.0 * res.rms
+
+
+def test_angle_gain_recovered_where_the_swing_is_nonlinear():
+    # theta (1 + g): told from theta0 only by the period's dependence on the amplitude, which at 2.5 rad is
+    # strong (the period 25 % longer than at small swings)
+    rec = record(lambda th: th * (1.0 + GAIN))
+    res = fit(compose("standard", ["angle_gain"]), rec)
+    assert res.converged and res.trustworthy, (res.message, res.flags)
+    g, w = res.params["theta_gain"], res.params["Omega0"]
+    assert abs(g.value - GAIN) < 3.0 * g.stderr and g.stderr < abs(GAIN) / 3.0, (g.value, g.stderr)
+    assert abs(w.value - TRUTH["Omega0"]) < 3.0 * w.stderr
+    # without the term an angle read small is a pendulum swinging faster at a smaller amplitude: Omega0 off
+    # by more than 3 of its standard errors
+    wrong = fit(get_model("standard"), rec)
+    assert abs(wrong.params["Omega0"].value - TRUTH["Omega0"]) > 3.0 * wrong.params["Omega0"].stderr
 
 
 def test_plausibility_flags_judge_a_measurement_parameter_by_its_error_only():

@@ -14,6 +14,7 @@ from pendtrack.artifacts import FIT_JSON_KEYS, Provenance, read_artifact, read_j
 from pendtrack.cli import cli
 from pendtrack.config import Config
 from pendtrack.stages.kinematics import kinematics_stage
+from pendtrack.models import PARAMS
 
 pytestmark = pytest.mark.integration  # the fit stage and `pendtrack fit` end to end
 
@@ -59,11 +60,14 @@ def test_fit_one_model_writes_exact_keys_and_curves(kin_file, tmp_path):
     assert set(data["params"]) == set(STANDARD)
     assert all(set(v) == {"value", "stderr", "u_paper"} for v in data["params"].values())
     assert abs(data["params"]["Omega0"]["value"] / 5.0 - 1) < 5e-4
-    # no memory, no valley to scan: the intervals to quote are the sandwich's value +- 1 and 1.96 stderr
+    # no memory, no valley to scan: the intervals to quote are the sandwich's value +- 1 and 1.96 stderr, cut
+    # at the parameter's physical range (a coefficient fitted at 0 has no interval below 0)
     for name, p in data["params"].items():
         lo, hi = data["interval95"][name]
-        assert data["quote"][name] == "interval" and lo < p["value"] < hi
-        assert (hi - lo) / 2 == pytest.approx(1.959964 * p["stderr"], rel=1e-9)
+        half = 1.959964 * p["stderr"]
+        assert data["quote"][name] == "interval" and lo <= p["value"] < hi
+        assert hi - p["value"] == pytest.approx(half, rel=1e-9)
+        assert lo == pytest.approx(max(p["value"] - half, PARAMS[name].low), rel=1e-9, abs=1e-300)
     same = json.loads((out / "fit_standard.json").read_text())
     assert same["params"] == data["params"]
     fit = read_artifact(out / "fit.parquet", "fit").data

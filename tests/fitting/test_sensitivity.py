@@ -30,6 +30,8 @@ TRUTHS = {
     "standard+power_drag+time_varying_damping+offset+angle_scale": {
         "Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002, "C3": 0.03, "p": 1.7, "C4": 1.0, "t0": -5.0,
         "theta_off": 0.01, "k_scale": 0.01},
+    # a gain of the angle: linear in theta, not a shift
+    "classic+angle_gain": {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": 2.0, "Ca": 0.01, "theta_gain": 2e-3},
     # the offset alone: a shift, whose chain rule is exact (Term.shift)
     "classic+offset": {"Omega0": 5.0, "C0": 0.02, "C3": 0.05, "p": 2.0, "Ca": 0.01, "theta_off": 0.01},
 }

@@ -37,6 +37,40 @@ def axle_shares(extra: dict[str, Any]) -> dict[str, float]:
         out[key] = float(v) if ok else 0.0
     return out
 
+def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float) -> np.ndarray | None:
+    """The frames of a tracked video in which the marker moved less than ``min_px`` pixels.
+
+    A compressed video keeps a marker's motion only to about a pixel a frame: where it moves less (the
+    turning points), the encoder's motion compensation drops the difference and the tracked marker sticks
+    (a render at crf 20 reads each turning point 0.3-1.1 mrad short, one frame late). Left out of a fit's
+    cost (:attr:`Record.cost_out`), they and every sample whose filter window reaches them no longer pull
+    the damping (docs/decisions.md, 2026-12-02).
+
+    Parameters
+    ----------
+    extra : dict
+        The kinematics file's provenance extra: ``marker_radius_px`` (the marker's distance from the axle
+        [px], from the angle stage's circle) and ``h`` (the frame interval [s]). Without them (a table, a
+        given axle, an older file) there are none.
+    omega : ndarray
+        Angular velocity of each sample [rad/s].
+    min_px : float
+        [px]; 0: none.
+
+    Returns
+    -------
+    ndarray of bool or None
+        True for a slow frame; None when there are none to leave out.
+    """
+    radius, h = extra.get("marker_radius_px"), extra.get("h")
+    numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+                  for v in (radius, h))
+    if not (min_px > 0 and numbers):
+        return None
+    slow = np.abs(np.asarray(omega, dtype=float)) * float(radius) * float(h) < min_px
+    return slow if slow.any() else None
+
+
 @dataclass(frozen=True, eq=False)
 class Record:
     """The data of one fit.
@@ -65,6 +99,9 @@ class Record:
         (the angle stage's ``axle_uncertainty``; 0: not known or exact). The residuals cannot show
         either: every sample carries the same error. The joint fit adds their shares to its
         covariance; the single fit takes the scale as ``theta_scale_rel``.
+    cost_out : ndarray of bool or None
+        Samples left out of the cost, with every sample whose filter window reaches one
+        (:func:`slow_frames`); the model-free estimates still use them. None: none.
     """
 
     t: np.ndarray
@@ -77,6 +114,7 @@ class Record:
     source: str = "the data"
     theta_scale_rel: float = 0.0
     zero_sigma_rad: float = 0.0
+    cost_out: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ("t", "theta", "omega"):
@@ -90,6 +128,16 @@ class Record:
         """Mask of the samples that enter the fit: finite (alpha too), ok, inside the window."""
         mask = usable_mask(self.t, self.theta, self.omega, self.ok, self.window, self.source)
         return mask & np.isfinite(np.asarray(self.alpha, dtype=float))
+
+    def cost_mask(self) -> np.ndarray:
+        """:meth:`usable` less :attr:`cost_out`: the samples whose residuals enter the cost."""
+        mask = self.usable()
+        if self.cost_out is None:
+            return mask
+        out = np.asarray(self.cost_out, dtype=bool)
+        if out.shape != mask.shape:
+            raise FitError(f"cost_out has shape {out.shape}, expected {mask.shape}", path=self.source)
+        return mask & ~out
 
     def summary(self, *, bias_corrected: bool = True) -> DataSummary:
         """Model-free facts of the usable samples (:func:`pendtrack.fitting.leastsq.equation_error.summarize`).
@@ -225,7 +273,9 @@ def uniform_series(problem: FitProblem, t: np.ndarray, series: list[np.ndarray],
     tu = t[mask]
     filled = [np.interp(grid, tu, s[mask]) for s in series]
     present = np.zeros(grid.size, bool)
-    present[grid_index(tu, problem.h, "the data")] = True
+    # the mask may reach beyond the cost's samples (Record.cost_out), on which the grid starts and ends
+    k = np.rint((tu - problem.t_start) / problem.h).astype(np.int64)
+    present[k[(k >= 0) & (k < grid.size)]] = True
     return grid, filled, present
 
 
