@@ -198,8 +198,10 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
         The kinematics: times [s], angle [rad], angular velocity [rad/s], acceleration [rad/s^2]
         (for the estimates) and the usable samples.
     provenance_extra, provenance_config : mapping
-        The kinematics provenance's facts and config: the data's filter (:func:`observation_from`)
-        and the zero of theta (``zero_reference``, :func:`fits_offset`).
+        The kinematics provenance's facts and config: the data's filter (:func:`observation_from`),
+        the zero of theta (``zero_reference``, :func:`fits_offset`) and the marker's radius and frame
+        interval (``marker_radius_px``, ``h``: the slow frames left out of the cost,
+        :func:`pendtrack.fitting.leastsq.samples.slow_frames`).
     options, model_options : FitConfig, ModelsConfig
         ``[fit]`` (every option of each fit, ``offset`` and ``workers`` included) and ``[models]``.
     source : str
