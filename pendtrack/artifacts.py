@@ -35,6 +35,8 @@ from pendtrack.version import __version__
 from pendtrack.errors import ArtifactError
 
 METADATA_KEY = b"pendtrack"
+# a model's name in the batch summary's column names: a composed model keeps its "+" ("classic+angle_gain")
+MODEL_RE = r"[\w+]+?"
 
 
 @dataclass(frozen=True)
@@ -200,12 +202,12 @@ SCHEMAS: dict[str, ArtifactSchema] = {
                 ColumnPattern(r"discover__\w+_rms", "float64", "rad",
                               "discovery: baseline_rms, final_rms, baseline_heldout_rms, final_heldout_rms"),
                 ColumnPattern(r"discover__\w+", "str", "1", "discovery: baseline, final_model, effects ('+'-joined)"),
-                ColumnPattern(r"\w+?__\w+?__(?:value|stderr|u_paper)", "float64", "as the parameter",
+                ColumnPattern(MODEL_RE + r"__\w+?__(?:value|stderr|u_paper)", "float64", "as the parameter",
                               "MODEL__PARAM__value|stderr|u_paper: fitted value, statistical and paper's uncertainty"),
-                ColumnPattern(r"\w+?__(?:xi2_min|rms|aic|bic|runtime_s)", "float64", "as in fit.json",
+                ColumnPattern(MODEL_RE + r"__(?:xi2_min|rms|aic|bic|runtime_s)", "float64", "as in fit.json",
                               "MODEL__xi2_min|rms|aic|bic|runtime_s from the model's fit.json"),
-                ColumnPattern(r"\w+?__converged", "bool", "1", "MODEL__converged (nullable)"),
-                ColumnPattern(r"\w+?__n", "int64", "1", "MODEL__n: samples in the fit (nullable)"),
+                ColumnPattern(MODEL_RE + r"__converged", "bool", "1", "MODEL__converged (nullable)"),
+                ColumnPattern(MODEL_RE + r"__n", "int64", "1", "MODEL__n: samples in the fit (nullable)"),
             ),
         ),
     )

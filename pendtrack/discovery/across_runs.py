@@ -147,7 +147,7 @@ def _records(data: Mapping[str, AnalysisData], *, train: bool) -> dict[str, Any]
     from pendtrack.fitting.leastsq.samples import Record
 
     return {run: Record(t=d.t, theta=d.theta, omega=d.omega, alpha=d.alpha,
-                        window=d.train_window if train else None, source=d.source,
+                        window=d.train_window if train else None, source=d.source, cost_out=d.cost_out,
                         observation=Observation(savgol_window=d.savgol_window, savgol_order=d.savgol_order,
                                                 smooth_theta=d.smoothed))
             for run, d in data.items()}
@@ -216,7 +216,7 @@ def _predict_heldout_run(task: RunsTask, run: str, others: Any, warm: Mapping[st
     fit = fit_model(model, d.t, d.theta, d.omega, options=opts, model_options=mopt, alpha=d.alpha,
                     observation=Observation(savgol_window=d.savgol_window, savgol_order=d.savgol_order,
                                             smooth_theta=d.smoothed),
-                    fixed=fixed, initial=free, seed=task.seed, workers=1, source=d.source)
+                    fixed=fixed, initial=free, seed=task.seed, workers=1, source=d.source, cost_out=d.cost_out)
     th, _ = predict(fit, model, d.t)
     return np.asarray(th, dtype=float)
 
@@ -521,7 +521,8 @@ class RunsLoop:
             raise FitError(f"discovery across runs needs at least two records, got {len(series)}")
         self.data = {r: prepare(s, analysis_rate_hz=dc.analysis_rate_hz, train_fraction=dc.train_fraction,
                                 savgol_window_s=config.kinematics.savgol_window_s,
-                                savgol_order=config.kinematics.savgol_order) for r, s in series.items()}
+                                savgol_order=config.kinematics.savgol_order,
+                                slow_motion_px=config.fit.slow_motion_px) for r, s in series.items()}
         self.labels = {r: dict((labels or {}).get(r) or {}) for r in series}
         self.sharing = dict(sharing or {})
         self.carried = ("offset",) if "offset" in dc.measurement else ()

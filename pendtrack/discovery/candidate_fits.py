@@ -170,7 +170,7 @@ def _fit(task: FitTask, *, full: bool):  # noqa: ANN202
                     initial=task.initial,
                     fixed=None if full else task.fixed,
                     extra_starts=task.extra_starts, seed=task.seed, workers=task.workers,
-                    source=d.source)
+                    source=d.source, cost_out=d.cost_out)
     log.debug("fit %s (%s): xi2 %.6g rms %.6g in %.1f s", model.name, "whole" if full else "train",
               fit.xi2_min, fit.rms, time.perf_counter() - t_wall)
     return model, fit

@@ -16,6 +16,7 @@ import numpy as np
 
 from pendtrack.discovery.inputs import AngleSeries
 from pendtrack.errors import FitError
+from pendtrack.fitting.leastsq.samples import slow_frames
 from pendtrack.kinematics import savgol_uniform, window_points
 
 UNIFORM_RTOL = 1e-6  # spacing spread below which a record counts as uniform (as pendtrack.models)
@@ -48,6 +49,10 @@ class AnalysisData:
         The input was interpolated onto a uniform grid.
     source : str
         Name of the input, for messages.
+    cost_out : ndarray of bool or None
+        A tracked video's slow frames, left out of every fit's cost
+        (:attr:`pendtrack.fitting.leastsq.samples.Record.cost_out`); the diagnostics and the held-out
+        predictions keep them. None: none.
     """
 
     t: np.ndarray
@@ -61,6 +66,7 @@ class AnalysisData:
     decimation: int
     interpolated: bool
     source: str
+    cost_out: np.ndarray | None = None
 
     @property
     def dt(self) -> float:
@@ -81,11 +87,12 @@ class AnalysisData:
         return {"n": int(self.t.size), "rate_hz": 1.0 / self.dt, "duration_s": float(self.t[-1] - self.t[0]),
                 "t_split": self.t_split, "n_heldout": int(self.heldout.sum()), "savgol_window": self.savgol_window,
                 "savgol_order": self.savgol_order, "decimation": self.decimation, "interpolated": self.interpolated,
-                "smoothed_input": self.smoothed}
+                "smoothed_input": self.smoothed,
+                "slow_frames": int(np.count_nonzero(self.cost_out)) if self.cost_out is not None else 0}
 
 
 def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: float, savgol_window_s: float,
-            savgol_order: int) -> AnalysisData:
+            savgol_order: int, slow_motion_px: float = 0.0) -> AnalysisData:
     """Uniform grid, decimation, Savitzky-Golay kinematics and the train/held-out split.
 
     Parameters
@@ -99,6 +106,9 @@ def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: flo
         Share of the duration fitted when judging held-out error, in (0, 1).
     savgol_window_s, savgol_order : float, int
         Savitzky-Golay filter ([kinematics] section) [s], [1].
+    slow_motion_px : float
+        A tracked video's frames in which the marker moves less than this leave the fits' cost
+        (``[fit] slow_motion_px``, :func:`pendtrack.fitting.leastsq.samples.slow_frames`) [px]; 0: none.
 
     Raises
     ------
@@ -128,6 +138,9 @@ def prepare(series: AngleSeries, *, analysis_rate_hz: float, train_fraction: flo
         raise FitError(f"record too short for a training part and a held-out part ({t.size} samples: "
                        f"{n_train} to train on and {n_held} held out at {1.0 / h:.4g} Hz; discovery needs at least "
                        f"{MIN_TRAINING} and {MIN_HELDOUT})", path=series.source)
+    # the marker's motion a frame is the video's (the input's step), not the decimated grid's
+    slow = slow_frames({"marker_radius_px": series.marker_radius_px, "h": dt}, omega, min_px=slow_motion_px,
+                       reach=win // 2)
     return AnalysisData(t=t, theta=theta, omega=omega, alpha=alpha, t_split=t_split, savgol_window=win,
                         savgol_order=savgol_order, smoothed=series.smoothed, decimation=k,
-                        interpolated=interpolated, source=str(series.source))
+                        interpolated=interpolated, source=str(series.source), cost_out=slow)

@@ -45,6 +45,10 @@ class AngleSeries:
     zero_shift : float
         Subtracted from the file's angle [rad]: the swing's centre when the file's zero is far from it
         (:meth:`centred`), else 0.
+    marker_radius_px : float or None
+        The tracked marker's distance from the axle [px] (a tracked video's angle or kinematics file), from
+        which its slow frames are found (:func:`pendtrack.fitting.leastsq.samples.slow_frames`); None: not
+        tracked from a video.
     """
 
     t: np.ndarray
@@ -53,6 +57,7 @@ class AngleSeries:
     kind: str
     smoothed: bool = False
     zero_shift: float = 0.0
+    marker_radius_px: float | None = None
 
     @property
     def n(self) -> int:
@@ -96,7 +101,7 @@ def series_from_record(rec: Record) -> AngleSeries:
     to a catch (neither is a free swing: :func:`pendtrack.kinematics.free_swing.free_swing`)."""
     ok = rec.ok if rec.kind == "kinematics" else free_swing(rec.t, rec.theta, rec.ok, source=rec.source)[0]
     return AngleSeries(t=rec.t[ok], theta=rec.theta[ok], source=rec.source, kind=rec.kind,
-                       smoothed=(rec.kind == "kinematics"))
+                       smoothed=(rec.kind == "kinematics"), marker_radius_px=rec.marker_radius_px)
 
 
 def read_angle_series(path: str | Path, *, table: TableSpec | None = None,

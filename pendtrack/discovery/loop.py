@@ -118,7 +118,8 @@ class DiscoveryLoop:
         dc = self.dc = config.discover
         self.data = prepare(series, analysis_rate_hz=dc.analysis_rate_hz, train_fraction=dc.train_fraction,
                             savgol_window_s=config.kinematics.savgol_window_s,
-                            savgol_order=config.kinematics.savgol_order)
+                            savgol_order=config.kinematics.savgol_order,
+                            slow_motion_px=config.fit.slow_motion_px)
         self.workers = worker_count(max(dc.workers, 0))
         self.tick = on_progress or (lambda n: None)
         base = fit_pair(FitTask(self.data, baseline, (), None, dc.n_starts_baseline, dc.seed, workers=self.workers,

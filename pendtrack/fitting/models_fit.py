@@ -233,7 +233,7 @@ def fit_models(models: Sequence[str], t: np.ndarray, theta: np.ndarray, omega: n
     obs = observation_from(provenance_extra, provenance_config, t, source=source)
     check_record(t, theta, omega, alpha=alpha, ok=ok, source=source)  # fail before any progress bar
     scale_rel = axle_shares(provenance_extra)["theta_scale_rel"]  # the axle's radius uncertainty over the radius [1]
-    slow = slow_frames(dict(provenance_extra), omega, min_px=options.slow_motion_px)
+    slow = slow_frames(dict(provenance_extra), omega, min_px=options.slow_motion_px, reach=obs.trim)
     results: dict[str, FitResult] = {}
     # the models' searches (and their profile sigmas) share one set of worker processes, started now (their
     # imports and kernels load while the first model's estimates run) rather than one set per model

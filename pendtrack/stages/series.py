@@ -104,7 +104,7 @@ def series_fit_stage(kinematics: Sequence[str | Path], *, out_dir: str | Path, c
                               alpha=df["alpha"].to_numpy(float), ok=df["ok"].to_numpy(bool), observation=obs,
                               source=str(art.path), **axle_shares(prov.extra or {}),
                               cost_out=slow_frames(dict(prov.extra or {}), df["omega"].to_numpy(float),
-                                                   min_px=config.fit.slow_motion_px))
+                                                   min_px=config.fit.slow_motion_px, reach=obs.trim))
         zeros[run] = (prov.extra or {}).get("zero_reference")
     fits = fit_joint_models(names, records, zeros=zeros, sharing=sharing, labels=dict(zip(runs, labels)),
                             options=config.fit, model_options=config.models, source=paths[0])

@@ -142,6 +142,16 @@ def test_summary_frame_round_trips_with_nullable_columns(tmp_path):
     assert list(text.columns) == list(df.columns) and text.loc[0, "classic__Omega0__value"] == 5.2
 
 
+def test_summary_frame_takes_a_composed_models_columns(tmp_path):
+    # `[fit] models = ["classic+angle_gain"]` in a batch: its columns were refused ("not in the summary schema")
+    row = {"run_id": "06na5", "file": "06na5.mp4", "status": "ok", "reason": "", "resumed": False,
+           **fit_columns({"classic+angle_gain": _fit_record(model="classic+angle_gain")})}
+    df = summary_frame([row])
+    assert df.loc[0, "classic+angle_gain__Omega0__value"] == 5.2 and df["classic+angle_gain__n"].dtype == "Int64"
+    parquet, _ = write_summary(df, tmp_path, provenance=Provenance(stage="batch"))
+    assert read_artifact(parquet, "summary").data.loc[0, "classic+angle_gain__xi2_min"] == 1.5
+
+
 def test_scheduler_names():
     assert check_scheduler("processes") == "processes"
     assert is_dask_address("tcp://127.0.0.1:8786") and is_dask_address("scheduler.lab:8786")

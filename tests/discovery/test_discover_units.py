@@ -684,3 +684,30 @@ def test_a_set_whose_member_its_fit_shows_absent_is_not_kept():
                        terms=("added_mass", "memory"), absent={"Ca": no_ca})
     assert not absent.earns_keep
     assert "the data show no added mass" in absent.reason() and absent.to_dict()["absent"] == {"Ca": no_ca}
+
+
+def test_a_tracked_videos_slow_frames_leave_discoverys_fits(tmp_path):
+    from pendtrack.artifacts import Provenance, write_artifact
+    from pendtrack.discovery.candidate_fits import FitTask, _fit
+    from pendtrack.discovery.data import prepare
+
+    # a swing from 2 rad at 120 fps whose angle file holds the tracked circle's radius (150 px); discovery
+    # analyses it at 60 Hz, but a frame's motion is the video's: |omega| 150 px / 120 < 1 px
+    t = np.arange(2400) / 120.0
+    theta = 2.0 * np.exp(-0.03 * t) * np.cos(5.0 * t)
+    df = pd.DataFrame({"t": t, "theta": theta, "ok": np.ones(t.size, bool)})
+    extra = {"circle": {"radius": 150.0, "cx": 320.0, "cy": 40.0}}
+    p = write_artifact(df, tmp_path / "angle.parquet", "angle", provenance=Provenance(stage="angle", extra=extra))
+    series = read_angle_series(p)
+    assert series.marker_radius_px == 150.0
+    kw = {"analysis_rate_hz": 60.0, "train_fraction": 0.6, "savgol_window_s": 0.1, "savgol_order": 3}
+    data = prepare(series, slow_motion_px=1.0, **kw)
+    assert data.decimation == 2 and data.cost_out is not None
+    assert np.array_equal(data.cost_out, np.abs(data.omega) * 150.0 / 120.0 < 1.0)
+    assert prepare(series, slow_motion_px=0.0, **kw).cost_out is None
+    # the fits' cost leaves them out (and the samples their filter windows reach), the data keep them
+    whole = FitTask(data, "standard", (), None, 1, 0, workers=1, cost="xi2", memory_s=1.0)
+    _, fit = _fit(whole, full=True)
+    kept = prepare(series, slow_motion_px=0.0, **kw)
+    _, fit_all = _fit(FitTask(kept, "standard", (), None, 1, 0, workers=1, cost="xi2", memory_s=1.0), full=True)
+    assert fit.n < fit_all.n - data.cost_out.sum()

@@ -29,6 +29,18 @@ def test_slow_frames_are_those_moving_less_than_the_threshold():
     assert slow_frames(extra, np.full(4, 5.0), min_px=1.0) is None  # nothing slow
 
 
+def test_a_swing_slow_throughout_keeps_every_sample():
+    # 0.25 rad at 5.2 rad/s: at most 1.6 px a frame, under a pixel 48 % of the time; with the 12 samples on each
+    # side that a 25-point filter window reaches, 82 % would leave the cost (the 0.25-rad render's measured share)
+    t = np.arange(2400) / FPS
+    extra = {"marker_radius_px": RADIUS_PX, "h": 1 / FPS}
+    small = 0.25 * 5.2 * np.cos(5.2 * t)
+    assert slow_frames(extra, small, min_px=1.0, reach=12) is None
+    assert slow_frames(extra, small, min_px=1.0, reach=0).mean() > 0.4  # alone, they would be a minority
+    large = 2.0 * 5.2 * np.cos(5.2 * t)  # 2 rad: 5 % slow, 38 % reached
+    assert slow_frames(extra, large, min_px=1.0, reach=12).sum() > 0
+
+
 def _sticky_record(seed: int):
     """A classic swing from 2.7 rad as a compressed video tracks it: where the marker moves less than a pixel a
     frame it is read one frame late (the encoder drops the sub-pixel motion; docs/decisions.md 2026-12-02);
@@ -54,7 +66,7 @@ def test_a_marker_stuck_at_the_turning_points_biases_the_damping_unless_its_slow
         return {k: (res.params[k].value - v) / res.params[k].stderr for k, v in TRUTH.items()}
 
     kept = fit(None)
-    out = slow_frames({"marker_radius_px": RADIUS_PX, "h": 1 / FPS}, kin.omega, min_px=1.0)
+    out = slow_frames({"marker_radius_px": RADIUS_PX, "h": 1 / FPS}, kin.omega, min_px=1.0, reach=obs.trim)
     left = fit(out)
     # kept: C0, C3 and p 8.6-11.5 standard errors off; left out (3333 of 4776 samples in the cost): within 1.4
     assert max(abs(v) for v in z(kept).values()) > 3.0

@@ -21,6 +21,9 @@ from pendtrack.fitting.leastsq.equation_error import DataSummary, summarize
 from pendtrack.fitting.leastsq.problem import FitProblem, Simulator, parameter_bounds
 
 GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
+# slow frames leave the cost only if at least this share of the samples stays in it (slow_frames): the
+# 12 renders of a series (from 2.7 rad) keep 67-70 %, a 0.25-rad swing would keep 18 %
+MIN_COST_SHARE = 0.5
 
 
 
@@ -37,7 +40,7 @@ def axle_shares(extra: dict[str, Any]) -> dict[str, float]:
         out[key] = float(v) if ok else 0.0
     return out
 
-def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float) -> np.ndarray | None:
+def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float, reach: int = 0) -> np.ndarray | None:
     """The frames of a tracked video in which the marker moved less than ``min_px`` pixels.
 
     A compressed video keeps a marker's motion only to about a pixel a frame: where it moves less (the
@@ -45,6 +48,11 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float) -> n
     (a render at crf 20 reads each turning point 0.3-1.1 mrad short, one frame late). Left out of a fit's
     cost (:attr:`Record.cost_out`), they and every sample whose filter window reaches them no longer pull
     the damping (docs/decisions.md, 2026-12-02).
+
+    A swing slow throughout (a small amplitude, a marker near the axle) is sub-pixel everywhere: leaving its
+    slow frames out would leave the cost a few fast samples each half-period, too few to fix the damping
+    (a 0.25-rad render: 82 % out, C0 17 standard errors off, p 44). Such a record keeps every sample: there
+    are none to leave out when fewer than :data:`MIN_COST_SHARE` of the samples would stay.
 
     Parameters
     ----------
@@ -56,6 +64,9 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float) -> n
         Angular velocity of each sample [rad/s].
     min_px : float
         [px]; 0: none.
+    reach : int
+        Samples on each side of a slow frame that leave the cost with it (the filter's half window,
+        :attr:`Observation.trim`).
 
     Returns
     -------
@@ -68,7 +79,10 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float) -> n
     if not (min_px > 0 and numbers):
         return None
     slow = np.abs(np.asarray(omega, dtype=float)) * float(radius) * float(h) < min_px
-    return slow if slow.any() else None
+    if not slow.any():
+        return None
+    reached = np.convolve(slow.astype(np.int64), np.ones(2 * reach + 1, np.int64), mode="same") > 0
+    return slow if 1.0 - reached.mean() >= MIN_COST_SHARE else None
 
 
 @dataclass(frozen=True, eq=False)
