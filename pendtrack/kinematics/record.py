@@ -119,8 +119,13 @@ def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str
         return (f"it stays within {half_range:.3g} rad of {0.5 * (raw.max() + raw.min()):.4g} rad over "
                 f"{raw.size} samples, inside its own noise band ({band:.3g} rad)")
     if n_turning == 0:
+        turns = float(np.ptp(raw)) / (2.0 * np.pi)
+        # a pendulum launched over the top (a double pendulum's first arm) rotates without a turning point:
+        # the angle is right, but no model here has a swing to fit until it swings back
+        rotation = (f"; if the pendulum turns over the top ({turns:.1f} turns), record it until it swings back"
+                    if turns > 1.0 else "")
         return (f"it goes from {raw[0]:.4g} to {raw[-1]:.4g} rad and never turns back ({raw.size} samples, "
-                "no turning point)")
+                f"no turning point{rotation})")
     return ""
 
 

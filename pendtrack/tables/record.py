@@ -483,6 +483,7 @@ def theta_from_xy(x: np.ndarray, y: np.ndarray, *, pivot: tuple[float, float], y
 
 SIDEWAYS_RAD = math.pi / 4  # positions whose swing is centred this far from straight down and from straight up (y's sign
 # the other way, refused below) have gravity along x
+FASTEST_SHARE = 0.1  # the fastest tenth of the samples: where a swing passes its bottom (_below_where_fastest)
 
 
 def _column_names(raw: dict[str, Any], spec: TableSpec) -> tuple[str, ...] | None:
@@ -520,6 +521,18 @@ def _swap_xy(columns: tuple[str, ...], vertical: str) -> str:
     return ",".join(out)
 
 
+def _below_where_fastest(t: np.ndarray, theta: np.ndarray, below: np.ndarray) -> bool:
+    """Whether the bob moves fastest below the pivot, as every pendulum does: its speed peaks at the bottom,
+    where its potential energy is least. A swing over or near the top lingers above the pivot (most of its
+    samples) and still passes it fastest below; a y axis read the wrong way, or a pivot off the path, puts
+    the fastest samples above. Fewer than 10 samples: most of them below."""
+    if theta.size < 10:
+        return bool(np.median(below) >= 0)
+    speed = np.abs(np.gradient(theta, t))
+    fastest = speed >= np.quantile(speed, 1.0 - FASTEST_SHARE)
+    return bool(np.median(below[fastest]) > 0)
+
+
 def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_fit: PivotFit | None,
                    info: dict[str, Any], path: Path) -> np.ndarray:
     x, y, y_down = raw["x"], raw["y"], raw["y_down"]
@@ -544,16 +557,16 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
                             f"swapped, name them so that y is the vertical (e.g. --columns {up} or {down}"
                             + ("" if names else " for the file's second and third columns") + ")", path=path)
     below = (y[usable] - pivot[1]) * (1.0 if y_down else -1.0)
-    if below.size and np.median(below) < 0:
+    if below.size and not _below_where_fastest(raw["t"][usable], theta[usable], below):
         axis, other = ("down", "y") if y_down else ("up", "y_down")
+        where = (f"above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) where it moves fastest (a swing's bottom) and in "
+                 f"{np.mean(below < 0):.0%} of its samples")
         if path.suffix.lower() == ".trk":  # a Tracker track's y points up, and no --columns applies to it
-            raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples (a "
-                                "Tracker track's y points up): give the pivot with --pivot X Y in the track's units, "
-                                "or choose the bob's track with --track", path=path)
+            raise ArtifactError(f"the bob is {where} (a Tracker track's y points up): give the pivot with --pivot X Y "
+                                "in the track's units, or choose the bob's track with --track", path=path)
         names = _column_names(raw, spec)
         example = _swap_y(names, other) if names else f"t,x,{other}"
-        raise ArtifactError(f"the bob is above the pivot ({pivot[0]:.6g}, {pivot[1]:.6g}) in most samples with y "
-                            f"{axis}: if the y axis points the other way, name the column {other} (e.g. "
-                            f"--columns {example})", path=path)
+        raise ArtifactError(f"the bob is {where} with y {axis}: if the y axis points the other way, name the column "
+                            f"{other} (e.g. --columns {example})", path=path)
     info["pivot"] = {"x": pivot[0], "y": pivot[1], "y_axis": "down" if y_down else "up", **facts}
     return theta

@@ -640,3 +640,24 @@ def test_positions_from_a_turned_camera_are_refused_naming_the_columns(tmp_path)
     rec = read_input(src, table=TableSpec(columns=parse_columns("t,y_down,x", check_roles=False)))
     # y_down = PY - Y points down, x = X - PX: the plain record's angle about the fitted pivot (exact data)
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-9)
+
+
+def test_a_swing_over_the_top_is_read_though_it_lingers_above_its_pivot(tmp_path):
+    # Algath/Physic_project_double_pendulum@fb1e8e8: a track from near the top, its pivot given, was refused as
+    # "above the pivot in most samples"; a swing from 3.05 rad spends 78 % of its time above the pivot, but moves
+    # fastest below it
+    t, theta = swing("classic", {"Omega0": 5.1, "C0": 0.003, "C3": 0.002, "p": 1.4, "Ca": 0.0}, seconds=6.0,
+                     fps=60.0, theta0=3.05)
+    x, y = 0.3 * np.sin(theta), -0.3 * np.cos(theta)  # y up, pivot at the origin
+    src = tmp_path / "top.txt"
+    src.write_text("t x y\n" + _lines(t, x, y))
+    rec = read_record(src, spec=TableSpec(pivot=(0.0, 0.0)))
+    np.testing.assert_allclose(rec.theta, theta, rtol=0, atol=1e-9)
+    # the same positions with y read the other way: above in most samples and fastest there, refused
+    src.write_text("t x y_down\n" + _lines(t, x, y))
+    with pytest.raises(ArtifactError, match="above the pivot"):
+        read_record(src, spec=TableSpec(pivot=(0.0, 0.0)))
+    # a pivot below the whole path: above in every sample
+    src.write_text("t x y\n" + _lines(t, x, y))
+    with pytest.raises(ArtifactError, match="above the pivot"):
+        read_record(src, spec=TableSpec(pivot=(0.0, -1.0)))
