@@ -703,7 +703,10 @@ def test_a_tracked_videos_slow_frames_leave_discoverys_fits(tmp_path):
     kw = {"analysis_rate_hz": 60.0, "train_fraction": 0.6, "savgol_window_s": 0.1, "savgol_order": 3}
     data = prepare(series, slow_motion_px=1.0, **kw)
     assert data.decimation == 2 and data.cost_out is not None
-    assert np.array_equal(data.cost_out, np.abs(data.omega) * 150.0 / 120.0 < 1.0)
+    slow = np.abs(data.omega) * 150.0 / 120.0 < 1.0
+    start = int(np.argmax(~slow))  # the release from rest stays: every discovery fit starts there
+    assert start > 0 and not data.cost_out[:start].any()
+    assert np.array_equal(data.cost_out[start:], slow[start:])
     assert prepare(series, slow_motion_px=0.0, **kw).cost_out is None
     # the fits' cost leaves them out (and the samples their filter windows reach), the data keep them
     whole = FitTask(data, "standard", (), None, 1, 0, workers=1, cost="xi2", memory_s=1.0)
@@ -711,3 +714,4 @@ def test_a_tracked_videos_slow_frames_leave_discoverys_fits(tmp_path):
     kept = prepare(series, slow_motion_px=0.0, **kw)
     _, fit_all = _fit(FitTask(kept, "standard", (), None, 1, 0, workers=1, cost="xi2", memory_s=1.0), full=True)
     assert fit.n < fit_all.n - data.cost_out.sum()
+    assert fit.window[0] == data.t[0]  # its initial state is the record's, from which discovery simulates it

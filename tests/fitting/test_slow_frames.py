@@ -27,6 +27,9 @@ def test_slow_frames_are_those_moving_less_than_the_threshold():
     assert slow_frames({"h": 1 / FPS}, omega, min_px=1.0) is None  # a table, a given axle: no radius
     assert slow_frames({**extra, "marker_radius_px": None}, omega, min_px=1.0) is None
     assert slow_frames(extra, np.full(4, 5.0), min_px=1.0) is None  # nothing slow
+    # a release from rest stays in the cost: the fit's initial state is the release's
+    release = np.array([0.0, 0.3, 0.7, 2.0, 0.5, 3.0])
+    assert slow_frames(extra, release, min_px=1.0).tolist() == [False, False, False, False, True, False]
 
 
 def test_a_swing_slow_throughout_keeps_every_sample():

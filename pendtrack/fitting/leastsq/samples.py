@@ -49,6 +49,9 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float, reac
     cost (:attr:`Record.cost_out`), they and every sample whose filter window reaches them no longer pull
     the damping (docs/decisions.md, 2026-12-02).
 
+    The record's first slow frames (a release from rest) stay in the cost: the fit's initial state is then at
+    the release, where discovery's predictions start.
+
     A swing slow throughout (a small amplitude, a marker near the axle) is sub-pixel everywhere: leaving its
     slow frames out would leave the cost a few fast samples each half-period, too few to fix the damping
     (a 0.25-rad render: 82 % out, C0 17 standard errors off, p 44). Such a record keeps every sample: there
@@ -79,6 +82,9 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float, reac
     if not (min_px > 0 and numbers):
         return None
     slow = np.abs(np.asarray(omega, dtype=float)) * float(radius) * float(h) < min_px
+    # a release from rest stays: the fit's initial state is the release's (discovery simulates every fit from
+    # the record's first sample), and a marker starting from rest lags by a frame once, which that state absorbs
+    slow[: int(np.argmax(~slow)) if not slow.all() else slow.size] = False
     if not slow.any():
         return None
     reached = np.convolve(slow.astype(np.int64), np.ones(2 * reach + 1, np.int64), mode="same") > 0
