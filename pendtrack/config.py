@@ -140,9 +140,9 @@ class FitConfig:
     # plain table), always, never
     offset: str = "auto"
     # a tracked video's frames in which the marker moved less than this many pixels (its turning points) are
-    # left out of the cost, with every sample whose filter window reaches them: a compressed video loses the
-    # marker's sub-pixel motion there (fitting.leastsq.samples.slow_frames); 0 = keep them
-    slow_motion_px: float = 1.0
+    # left out of the cost, with every sample whose filter window reaches them: a compressed video codes a slow
+    # marker's motion short there, up to a few pixels a frame (fitting.leastsq.samples.slow_frames); 0 = keep them
+    slow_motion_px: float = 3.0
     # Jacobians of the Levenberg-Marquardt starts and the refine step: "sensitivity" = the forward
     # sensitivity equations integrated with the RK4 trajectory (models without memory; the others keep
     # finite differences), "fd" = finite differences (one simulation per parameter). The sandwich

@@ -21,8 +21,8 @@ from pendtrack.fitting.leastsq.equation_error import DataSummary, summarize
 from pendtrack.fitting.leastsq.problem import FitProblem, Simulator, parameter_bounds
 
 GRID_TOL = 1e-3  # data times may deviate from the uniform grid by this fraction of a step
-# slow frames leave the cost only if at least this share of the samples stays in it (slow_frames): the
-# 12 renders of a series (from 2.7 rad) keep 67-70 %, a 0.25-rad swing would keep 18 %
+# slow frames leave the cost, the slowest first, only while at least this share of the samples stays in it
+# (slow_frames): at 3 px a frame the 8 renders of a series (640x360) would keep 50-53 %, a 0.25-rad swing 0 %
 MIN_COST_SHARE = 0.5
 
 
@@ -43,19 +43,22 @@ def axle_shares(extra: dict[str, Any]) -> dict[str, float]:
 def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float, reach: int = 0) -> np.ndarray | None:
     """The frames of a tracked video in which the marker moved less than ``min_px`` pixels.
 
-    A compressed video keeps a marker's motion only to about a pixel a frame: where it moves less (the
-    turning points), the encoder's motion compensation drops the difference and the tracked marker sticks
-    (a render at crf 20 reads each turning point 0.3-1.1 mrad short, one frame late). Left out of a fit's
-    cost (:attr:`Record.cost_out`), they and every sample whose filter window reaches them no longer pull
-    the damping (docs/decisions.md, 2026-12-02).
+    A compressed video codes a slow marker's motion short: where it moves a few pixels a frame or less (the
+    turning points), the encoder's motion compensation drops part of the difference and the tracked marker
+    sticks (a render at crf 20 reads each turning point 0.3-1.1 mrad short, one frame late, and frames moving
+    1-3 px still 0.4 mrad short on average, 0.2 at 3-8 px). Left out of a fit's cost
+    (:attr:`Record.cost_out`), they and every sample whose filter window reaches them no longer pull the
+    damping, nor Omega0 through the amplitude read short (docs/decisions.md, 2026-12-02).
 
     The record's first slow frames (a release from rest) stay in the cost: the fit's initial state is then at
-    the release, where discovery's predictions start.
+    the release, where discovery's predictions start. A record slow throughout has no release.
 
-    A swing slow throughout (a small amplitude, a marker near the axle) is sub-pixel everywhere: leaving its
-    slow frames out would leave the cost a few fast samples each half-period, too few to fix the damping
-    (a 0.25-rad render: 82 % out, C0 17 standard errors off, p 44). Such a record keeps every sample: there
-    are none to leave out when fewer than :data:`MIN_COST_SHARE` of the samples would stay.
+    The slowest frames leave first, and at most so many that :data:`MIN_COST_SHARE` of the samples stay: a
+    swing slow throughout (a small amplitude, a marker near the axle) would otherwise leave the cost a few
+    fast samples each half-period, too few to fix the damping (a 0.25-rad render with every frame under
+    1 px out: 82 % out, C0 17 standard errors off, p 44). Where ``min_px`` would leave fewer, the threshold
+    is lowered until that share stays, so a swing a little slower loses a little less, never all of its
+    protection at once.
 
     Parameters
     ----------
@@ -81,14 +84,33 @@ def slow_frames(extra: dict[str, Any], omega: np.ndarray, *, min_px: float, reac
                   for v in (radius, h))
     if not (min_px > 0 and numbers):
         return None
-    slow = np.abs(np.asarray(omega, dtype=float)) * float(radius) * float(h) < min_px
-    # a release from rest stays: the fit's initial state is the release's (discovery simulates every fit from
-    # the record's first sample), and a marker starting from rest lags by a frame once, which that state absorbs
-    slow[: int(np.argmax(~slow)) if not slow.all() else slow.size] = False
-    if not slow.any():
-        return None
-    reached = np.convolve(slow.astype(np.int64), np.ones(2 * reach + 1, np.int64), mode="same") > 0
-    return slow if 1.0 - reached.mean() >= MIN_COST_SHARE else None
+    speed = np.abs(np.asarray(omega, dtype=float)) * float(radius) * float(h)  # [px per frame]
+
+    def below(px: float) -> tuple[np.ndarray, float]:
+        """The frames slower than ``px`` (a release from rest kept) and the share of samples they leave."""
+        slow = speed < px
+        # a release from rest stays: the fit's initial state is the release's (discovery simulates every fit
+        # from the record's first sample), and a marker starting from rest lags by a frame once, which that
+        # state absorbs
+        if not slow.all():  # (a record slow throughout has no release: its frames are all slow)
+            slow[: int(np.argmax(~slow))] = False
+        reached = np.convolve(slow.astype(np.int64), np.ones(2 * reach + 1, np.int64), mode="same") > 0
+        return slow, 1.0 - float(reached.mean())
+
+    slow, kept = below(min_px)
+    if kept < MIN_COST_SHARE:
+        # the largest lower threshold (one of the samples' own speeds) that keeps the share: the kept share
+        # only grows as the threshold falls, so bisect over the sorted speeds below min_px
+        levels = np.unique(speed[np.isfinite(speed) & (speed < min_px)])
+        lo, hi = 0, levels.size  # below(levels[0]) leaves nothing out: it always keeps the share
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if below(float(levels[mid]))[1] >= MIN_COST_SHARE:
+                lo = mid
+            else:
+                hi = mid
+        slow, kept = below(float(levels[lo])) if levels.size else (np.zeros(speed.size, bool), 1.0)
+    return slow if slow.any() else None
 
 
 @dataclass(frozen=True, eq=False)
