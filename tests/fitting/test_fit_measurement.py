@@ -211,3 +211,46 @@ def test_a_held_offset_is_the_models_zero():
                     workers=1, fixed={"theta_off": 0.0})
     assert res.params["theta_off"].fixed and res.params["theta_off"].value == 0.0
     assert res.to_dict()["fixed"] == ["theta_off"]
+
+
+def _fd_by_simulating_every_column(prob, x, *, central):  # noqa: ANN001, ANN202
+    """The finite-difference Jacobian with every column simulated afresh (:meth:`FitProblem.jacobian`'s steps)."""
+    steps = prob.fd_steps(x)
+    r0 = prob.residuals(x)
+    cols = []
+    for j in range(x.size):
+        up, down = prob.upper[j] - x[j], x[j] - prob.lower[j]
+        if central:
+            hp, hm = min(steps[j], up), min(steps[j], down)
+            xp, xm = x.copy(), x.copy()
+            xp[j] += hp
+            xm[j] -= hm
+            cols.append((prob.residuals(xp) - prob.residuals(xm)) / (hp + hm))
+        else:
+            h = steps[j] if steps[j] <= up else -min(steps[j], down)
+            xp = x.copy()
+            xp[j] += h
+            cols.append((prob.residuals(xp) - r0) / h)
+    return np.column_stack(cols)
+
+
+@pytest.mark.parametrize("central", [False, True], ids=["forward", "central"])
+def test_measurement_columns_observe_the_state_again_and_equal_fresh_simulations(central):
+    # the simulated state does not depend on theta_off or k_scale: their finite-difference columns observe the
+    # state at x again instead of simulating; the Jacobian must be the one that simulates every column, bit for bit
+    from factory import synthetic_problem
+
+    from pendtrack.fitting.leastsq.local_fits import _Tracker
+
+    truth = {"Omega0": 5.0, "C1": 0.02, "C0": 0.02, "C2": 0.002, "theta_off": 0.01, "k_scale": 0.01}
+    prob, x = synthetic_problem("standard+offset+angle_scale", truth, 6.0)
+    prob = prob.__class__(**{**prob.__dict__, "jacobian_method": "fd"})
+    assert [prob.names[j] for j in prob.measurement_columns] == ["theta_off", "k_scale"]
+    reference = _fd_by_simulating_every_column(prob, x, central=central)
+    np.testing.assert_array_equal(prob.jacobian(x, central=central), reference)
+    # the local fits' counter: the same columns, and every column still counts as an evaluation (the budgets)
+    tracker = _Tracker(prob, 10**6, central=central)
+    r0 = tracker(x)
+    calls = tracker.calls
+    np.testing.assert_array_equal(tracker.jac(x, r0), reference)
+    assert tracker.calls - calls == x.size * (2 if central else 1)

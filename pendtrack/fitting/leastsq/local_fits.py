@@ -31,9 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pendtrack.errors import PendtrackError
 from pendtrack.fitting.leastsq.coordinates import BoundCoordinates
 from pendtrack.fitting.leastsq.lm import levenberg_marquardt, sumsq
-from pendtrack.fitting.leastsq.problem import FitProblem
+from pendtrack.fitting.leastsq.problem import FitProblem, SimState
 from pendtrack.parallel import process_pool, worker_count
 
 FINAL_TOL = 1e-8  # ftol/xtol on the whole window: a 0.01-0.03 standard-error change of a parameter
@@ -149,16 +150,34 @@ class _Tracker:
         self.best_r: np.ndarray | None = None
         self.best_cost = np.inf
         self.best_at_80 = np.inf  # best cost after 80 % of the budget
+        # the finite-difference Jacobian's columns of measurement parameters observe the state at the point
+        # again instead of simulating it (the state does not depend on them): the last two points' states are kept
+        self._keeps_states = bool(getattr(problem, "measurement_columns", ())) and not problem.uses_sensitivities()
+        self._states: tuple[tuple[np.ndarray, SimState | None], ...] = ()
 
     def __call__(self, y: np.ndarray) -> np.ndarray:
         """The residuals at the step point ``y`` (best point kept in the parameters ``x``)."""
-        return self._residuals(y if self.coords is None else self.coords.to_natural(y))
+        return self._residuals(y if self.coords is None else self.coords.to_natural(y), keep=self._keeps_states)
 
-    def _residuals(self, x: np.ndarray) -> np.ndarray:
+    def _residuals(self, x: np.ndarray, state: SimState | None = None, *,
+                   keep: bool = False) -> np.ndarray:
+        """The residuals at ``x`` through the counter; ``state``: the simulated state at a point differing from ``x``
+        only in measurement parameters (:meth:`FitProblem.residuals_at_state`), else ``x`` is simulated
+        (``keep``: and its state kept for a Jacobian there)."""
         if self.calls >= self.budget:
             raise _Budget
         self.calls += 1
-        r = self.problem.residuals(x)
+        if state is not None:
+            r = self.problem.residuals_at_state(state, x)
+        elif keep:
+            try:
+                st = self.problem.simulate_state(x)
+            except (PendtrackError, ValueError, ArithmeticError):
+                st = None
+            self._states = (*self._states[-1:], (x.copy(), st))
+            r = self.problem.penalty() if st is None else self.problem.residuals_at_state(st)
+        else:
+            r = self.problem.residuals(x)
         c = sumsq(r)
         if c < self.best_cost:
             self.best_cost, self.best_x, self.best_r = c, x.copy(), r
@@ -198,19 +217,22 @@ class _Tracker:
         lo, hi = self.problem.lower, self.problem.upper
         steps = self.problem.fd_steps(x)
         jac = np.empty((r0.size, x.size), order="F")  # columns contiguous: LM's products with J run ~3x faster
+        at_x = next((st for xs, st in self._states if np.array_equal(xs, x)), None)
+        shifts = self.problem.measurement_columns if at_x is not None else ()
         for j in range(x.size):
+            state = at_x if j in shifts else None
             if self.central:
                 hp, hm = min(steps[j], hi[j] - x[j]), min(steps[j], x[j] - lo[j])
                 xp, xm = x.copy(), x.copy()
                 xp[j] += hp
                 xm[j] -= hm
-                np.subtract(self._residuals(xp), self._residuals(xm), out=jac[:, j])
+                np.subtract(self._residuals(xp, state), self._residuals(xm, state), out=jac[:, j])
                 jac[:, j] /= hp + hm
                 continue
             h = steps[j] if x[j] + steps[j] <= hi[j] else -min(steps[j], x[j] - lo[j])
             xp = x.copy()
             xp[j] += h
-            np.subtract(self._residuals(xp), r0, out=jac[:, j])
+            np.subtract(self._residuals(xp, state), r0, out=jac[:, j])
             jac[:, j] /= h
         return jac
 

@@ -16,7 +16,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -30,6 +30,14 @@ FD_REL = 1e-5  # relative finite-difference step (see FitProblem.fd_steps)
 JACOBIANS = ("sensitivity", "fd")  # FitProblem.jacobian's methods ([fit] jacobian)
 
 Simulator = Callable[..., Any]
+
+
+class SimState(NamedTuple):
+    """A simulated trajectory before it is observed (:meth:`FitProblem.simulate_state`)."""
+
+    theta: np.ndarray  #: the model's angle on the grid [rad]
+    omega: np.ndarray  #: its angular velocity [rad/s]
+    params: dict  #: the model's parameters it was simulated with (validated), measurement parameters included
 
 
 def _simulate_packed(model: Any, params: Mapping[str, float], n: int, h: float, t_start: float, theta0: float,
@@ -220,13 +228,26 @@ class FitProblem:
             Observed model angle [rad] and angular velocity [rad/s] on the grid; NaN-free
             or an exception (:class:`FloatingPointError`) if the solution blew up.
         """
+        return self.observe(self.simulate_state(x, n_grid=n_grid))
+
+    def simulate_state(self, x: np.ndarray, *, n_grid: int | None = None) -> SimState:
+        """The model's own ``(theta, omega)`` on the grid [rad], [rad/s], before it is observed, with ``x``'s parameters.
+
+        It does not depend on the measurement parameters (:attr:`measurement_columns`): the same
+        state observed at points that differ only in those gives their residuals
+        (:meth:`residuals_at_state`) without simulating again.
+
+        Raises
+        ------
+        FloatingPointError
+            The solution blew up; :class:`~pendtrack.errors.PendtrackError` or ValueError for
+            parameters outside the model's ranges.
+        """
         p = self.full(x)
         n = self.n_grid if n_grid is None else n_grid
         params = {k: v for k, v in p.items() if k not in STATE_NAMES}
-        validated = False
         if self.simulator is None:
-            params = self.model.validate(params)  # once: packing and the measurement terms take it as it is
-            validated = True
+            params = self.model.validate(params)  # the physical ranges (ModelError)
             theta, omega = _simulate_packed(self.model, params, n, self.h, self.t_start, p["theta0"], p["omega0"],
                                             self.memory_s, self.full_history, self.max_step_s, self.substep_phase,
                                             validated=True)
@@ -238,9 +259,30 @@ class FitProblem:
             omega = np.asarray(res.omega, dtype=float)
         if theta.shape != (n,) or not (np.isfinite(theta).all() and np.isfinite(omega).all()):
             raise FloatingPointError("simulation did not return finite values on the grid")
+        return SimState(theta, omega, params)
+
+    def observe(self, state: SimState, x: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """A simulated state (:meth:`simulate_state`) seen as the data were: through the model's measurement
+        terms, then the data's filter (:meth:`simulate`); with the measurement parameters of ``x`` if given,
+        else those of the state's own point."""
+        theta, omega = state.theta, state.omega
         if getattr(self.model, "measurement_terms", ()):  # the camera measures theta_obs; the pipeline then filters it
-            theta, omega = self.model.observe_state(theta, omega, params, validated=validated)
+            params = state.params
+            if x is not None:
+                p = self.full(x)
+                params = {k: v for k, v in p.items() if k not in STATE_NAMES}
+                if self.simulator is None:
+                    params = self.model.validate(params)
+            theta, omega = self.model.observe_state(theta, omega, params, validated=self.simulator is None)
         return self.observation.apply(theta, omega, self.h)
+
+    @cached_property
+    def measurement_columns(self) -> tuple[int, ...]:
+        """Positions in :attr:`names` of the measurement terms' parameters: the simulated state does not depend on them."""
+        from pendtrack.models.terms import CATALOGUE
+
+        measured = {n for t in getattr(self.model, "measurement_terms", ()) for n in CATALOGUE[t].params}
+        return tuple(j for j, name in enumerate(self.names) if name in measured)
 
     def model_at_data(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Observed model angle [rad] and angular velocity [rad/s] at the data samples."""
@@ -251,12 +293,26 @@ class FitProblem:
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Residual vector (sum of squares = cost); a large constant where the model fails."""
         try:
-            theta_m, omega_m = self.model_at_data(x)
+            state = self.simulate_state(x)
         except (PendtrackError, ValueError, ArithmeticError):
-            size = self.n * (2 if self.cost == "xi2" else 1)
-            return np.full(size, PENALTY / math.sqrt(self.n))
-        return residual_vector(theta_m, omega_m, self.theta, self.omega, cost=self.cost,
+            return self.penalty()
+        return self.residuals_at_state(state)
+
+    def residuals_at_state(self, state: SimState, x: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`residuals` at the state's own point, or at ``x`` if it differs from that point at most in the
+        measurement parameters (:attr:`measurement_columns`): the same vector, bit for bit, without simulating."""
+        try:
+            theta, omega = self.observe(state, x)
+        except (PendtrackError, ValueError, ArithmeticError):
+            return self.penalty()
+        rows = self.rows
+        return residual_vector(theta[rows], omega[rows], self.theta, self.omega, cost=self.cost,
                                omega_scale=self.omega_scale, a_theta_exp=self.a_theta_exp)
+
+    def penalty(self) -> np.ndarray:
+        """The residual vector of a point where the model fails (cost ``PENALTY**2`` per channel, far above any real one)."""
+        size = self.n * (2 if self.cost == "xi2" else 1)
+        return np.full(size, PENALTY / math.sqrt(self.n))
 
     @cached_property
     def rows(self) -> slice | np.ndarray:
@@ -321,10 +377,19 @@ class FitProblem:
             if jac is not None:
                 return jac
         steps = self.fd_steps(x, rel) if steps is None else np.asarray(steps, dtype=float)
+        state = None  # the state at x, observed again for the measurement parameters' columns
+        if self.measurement_columns:
+            try:
+                state = self.simulate_state(x)
+            except (PendtrackError, ValueError, ArithmeticError):
+                pass
         if r0 is None and not central:
-            r0 = self.residuals(x)
+            r0 = self.residuals(x) if state is None else self.residuals_at_state(state)
         cols = []
         for j in range(x.size):
+            if state is not None and j in self.measurement_columns:
+                cols.append(self._shift_column(state, x, j, steps[j], central=central, r0=r0))
+                continue
             up = self.upper[j] - x[j] if self.upper.size else np.inf
             down = x[j] - self.lower[j] if self.lower.size else np.inf
             h = steps[j]
@@ -343,6 +408,24 @@ class FitProblem:
                 xp[j] += h
                 cols.append((self.residuals(xp) - r0) / h)
         return np.column_stack(cols)
+
+    def _shift_column(self, state: SimState, x: np.ndarray, j: int, h: float, *,
+                      central: bool, r0: np.ndarray | None) -> np.ndarray:
+        """:meth:`jacobian`'s finite-difference column of measurement parameter ``j`` from the state at ``x``:
+        the same steps and arithmetic as the other columns, the residuals observed instead of simulated."""
+        up = self.upper[j] - x[j]
+        down = x[j] - self.lower[j]
+        if central:
+            hp, hm = min(h, up), min(h, down)
+            xp, xm = x.copy(), x.copy()
+            xp[j] += hp
+            xm[j] -= hm
+            return (self.residuals_at_state(state, xp) - self.residuals_at_state(state, xm)) / (hp + hm)
+        if h > up:
+            h = -min(h, down)
+        xp = x.copy()
+        xp[j] += h
+        return (self.residuals_at_state(state, xp) - r0) / h
 
     def simulate_sensitivities(self, x: np.ndarray, *, steer: bool = False
                                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
