@@ -44,7 +44,9 @@ A table without a time column (a logger's angles at a fixed rate) is timed by ``
 A column without a unit is read in s or rad, and checked (:mod:`pendtrack.tables.checks`):
 a theta that swings more than a full turn between two turning points is not in rad, and a time
 column whose swing period is beyond 100 "s" is not in s. Both are errors that name the
-``--columns`` to give; a declared unit is taken as declared.
+``--columns`` to give (or, for numbers that are no swing in degrees either, say the column is not
+an angle); a declared unit is taken as declared, but no free pendulum swings beyond a full turn
+between two turning points in any unit.
 
 x, y convention
 ---------------

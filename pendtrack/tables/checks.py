@@ -84,24 +84,50 @@ def turning_values(theta: np.ndarray) -> np.ndarray:
     return x[turning_points(x)]
 
 
-def theta_not_radians(theta: np.ndarray) -> str | None:
-    """Why an angle series read in rad cannot be in rad (a sentence), or None if it can be."""
-    travel = _travel_from_rest(theta)
+def angle_impossible(theta: np.ndarray, *, from_rest: bool = True) -> str | None:
+    """Why an angle series in rad cannot be a free pendulum's angle (a phrase), or None if it can be.
+
+    Between two turning points a free pendulum cannot move by more than a full turn (2 pi rad): it starts
+    from rest there, so it never passes the top (a reversal beyond the top is impossible: past it, gravity
+    carries the bob on). Nor can one released from rest move by more than a full turn to its first turning
+    point (``from_rest``; a hand that spins it first can, so a declared unit is not judged by this). Values
+    that break the first rule are not a free swing's angle in any unit (pixels read as degrees, say).
+    """
+    travel = _travel_from_rest(theta) if from_rest else None
     if travel is not None and travel > TURN:
-        return (f"theta moves by {travel:.4g} from its start at rest to its first turning point, more than a full "
-                "turn (2 pi rad), which no pendulum released from rest does: not radians, it looks like degrees")
+        return (f"theta moves by {travel:.4g} rad from its start at rest to its first turning point, more than a "
+                "full turn, which no pendulum released from rest does")
     ext = turning_values(theta)
     if ext.size >= 2:
         swing = float(np.max(np.abs(np.diff(ext))))
         if swing > TURN:
-            return (f"theta swings by up to {swing:.4g} between two turning points, more than a full turn "
-                    "(2 pi rad): not radians, it looks like degrees")
-        return None
-    finite = np.asarray(theta, float)[np.isfinite(theta)]
-    if finite.size and float(np.max(np.abs(finite))) > FAR_TURNS * TURN:
-        return (f"theta reaches {float(np.max(np.abs(finite))):.4g} without turning back twice, beyond "
-                f"{FAR_TURNS:g} full turns: not radians, it looks like degrees")
+            return (f"theta swings by up to {swing:.4g} rad between two turning points, more than a full turn, "
+                    "which no free pendulum does (it cannot turn back beyond the top)")
     return None
+
+
+def theta_not_radians(theta: np.ndarray) -> tuple[str, bool] | None:
+    """Why an angle series read in rad cannot be in rad, and whether it can be in degrees; None if rad can be.
+
+    Returns
+    -------
+    (str, bool) or None
+        A sentence, and True where the same numbers read in degrees make a possible swing (the fix is
+        to declare degrees), False where they do not either (not an angle: a position, say).
+    """
+    why = angle_impossible(theta)
+    if why is None:
+        ext = turning_values(theta)
+        finite = np.asarray(theta, float)[np.isfinite(theta)]
+        if ext.size >= 2 or not (finite.size and float(np.max(np.abs(finite))) > FAR_TURNS * TURN):
+            return None
+        why = (f"theta reaches {float(np.max(np.abs(finite))):.4g} without turning back twice, beyond "
+               f"{FAR_TURNS:g} full turns")
+    why = why.replace(" rad ", " ", 1)  # the numbers as written: their unit is the question
+    if angle_impossible(np.radians(np.asarray(theta, float))) is None:
+        return f"{why}: not radians, it looks like degrees", True
+    return (f"{why}; read as degrees the numbers do not make a pendulum's swing either: not an angle (a position "
+            "in pixels or mm? then name the columns x and y)"), False
 
 
 def _travel_from_rest(theta: np.ndarray) -> float | None:

@@ -16,7 +16,9 @@ from pendtrack.artifacts import Provenance, read_artifact, read_metadata
 from pendtrack.config import VIDEO_SUFFIXES
 from pendtrack.errors import ArtifactError, ConfigError
 from pendtrack.gitlfs import is_lfs_pointer, lfs_message
-from pendtrack.tables.checks import theta_not_radians, theta_warnings, time_not_seconds, turning_values
+from pendtrack.tables.checks import (
+    angle_impossible, theta_not_radians, theta_warnings, time_not_seconds, turning_values,
+)
 from pendtrack.tables.rounded_times import retime_rounded
 from pendtrack.tables.grid import (CHANGE_GAP_COUNTS, at_count_edges, change_count, dwell_gaps, resample_irregular,
                                    resample_jittered, time_layout)
@@ -406,10 +408,19 @@ def _check_units(raw: dict[str, Any], path: Path) -> None:
     if "theta" in found:
         th_col = cols[found["theta"]]
         if th_col is not None and not th_col.declared:
-            why_theta = theta_not_radians(raw["theta"])
-            if why_theta is not None:
+            wrong_theta = theta_not_radians(raw["theta"])
+            if wrong_theta is not None:
+                why_theta, in_degrees = wrong_theta
+                if not in_degrees:  # no unit to declare: the column is not an angle
+                    raise ArtifactError(why_theta, path=path)
                 problems.append(why_theta)
                 fix["theta"] = "deg"
+        elif th_col is not None:  # declared: the numbers must still make a free swing in that unit
+            why_theta = angle_impossible(raw["theta"], from_rest=False)
+            if why_theta is not None:
+                unit = "deg" if th_col.unit == "°" else (th_col.unit or "rad")
+                raise ArtifactError(f"{why_theta}: column {found['theta'] + 1} is not an angle in {unit} (a position "
+                                    "in pixels or mm? then name the columns x and y)", path=path)
     if problems:
         header = ", ".join(f"'{r} [{u}]'" for r, u in fix.items())
         units = f"unit{'s' if len(fix) > 1 else ''}"

@@ -808,7 +808,8 @@ def test_unit_checks_without_turning_points():
 
     t = np.arange(300) / 60.0
     spin = 12.0 * t  # over the top, never turning back: 60 (degrees?) in 5 s, beyond two turns in rad
-    assert "without turning back twice" in (theta_not_radians(spin) or "")
+    why, in_degrees = theta_not_radians(spin)
+    assert "without turning back twice" in why and in_degrees
     assert theta_not_radians(np.clip(spin, 0, 4 * math.pi - 0.1)) is None  # under two turns: plausible in rad
     # a record sampled 20 "s" apart cannot be a pendulum's in seconds: 20 ms, in ms
     assert time_not_seconds(t * 1200.0, spin) == ("the time column has a sample step of 20, too long for seconds",
@@ -884,7 +885,8 @@ def test_a_release_from_rest_that_travels_beyond_a_turn_is_degrees():
     # in rad it passed every check (one turning point, under two turns)
     angle = np.array([10.7227, 9.4043, 5.9766, 1.6699, -2.0215, -4.6582, -6.0645, -6.1523, -5.4492, -4.5703,
                       -3.7793, -3.1641, -2.6367, -2.4609, -2.373, -2.4609] + [-2.6367] * 60)
-    assert "from its start at rest to its first turning point" in (theta_not_radians(angle) or "")
+    why, in_degrees = theta_not_radians(angle)
+    assert "from its start at rest to its first turning point" in why and in_degrees
     assert theta_not_radians(np.radians(angle)) is None
     # released from rest just below the top, in rad: it travels less than a full turn before turning back
     _, theta = swing("standard", {"Omega0": 6.0, "C1": 0.01, "C0": 0.01, "C2": 0.01}, seconds=10.0,

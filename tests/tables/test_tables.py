@@ -481,12 +481,43 @@ def test_degrees_without_a_unit_are_an_error_naming_the_fix(tmp_path):
     # declared, it reads as the radians it is
     rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-12)
-    # and a rotating pendulum (a swing beyond a full turn is possible) declares rad
-    turns = 4.0 * THETA  # swings of up to 8 rad
+    # a pendulum spun over the top before it swings declares rad: turns are not degrees
+    t = np.arange(6000) / 120
+    over = np.where(t < 5, 2.6 * t, 13.0 + 0.8 * np.exp(-t / 30) * np.sin(5 * (t - 5)))
+    src.write_text(_lines(t, over))
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[rad]"))).theta, over, atol=0)
+    # swings of up to 8 between turning points are degrees; declared rad they are refused, as no free pendulum
+    # swings beyond a full turn between two turning points (it would turn back beyond the top)
+    turns = 4.0 * THETA
     src.write_text(_lines(T, turns))
-    with pytest.raises(ArtifactError, match="not radians"):
+    with pytest.raises(ArtifactError, match="not radians, it looks like degrees"):
         read_record(src)
-    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[rad]"))).theta, turns, atol=0)
+    with pytest.raises(ArtifactError, match="more than a full turn, which no free pendulum does .*: column 2 is not an "
+                                            r"angle in rad"):
+        read_record(src, spec=TableSpec(columns=("t", "theta[rad]")))
+    np.testing.assert_allclose(read_record(src, spec=TableSpec(columns=("t", "theta[deg]"))).theta,
+                               np.radians(turns), rtol=1e-15)
+
+
+def test_pixels_are_no_angle_in_any_unit(tmp_path):
+    # a phone track's x, y [px] without a header, its bob swinging 0.2 rad on a 1000-px arm with 4 px of noise:
+    # read as theta, the numbers are neither radians nor degrees (x swings by 400 between turning points), and
+    # the error says so instead of suggesting degrees; declared in degrees they are refused too (they were read
+    # as a 200-degree swing, Omega0 9.15 rad/s against 5.87); as the positions they are, they read
+    rng = np.random.default_rng(8)
+    t = np.arange(0, 60, 1 / 30)
+    th = 0.2 * np.exp(-t / 80) * np.cos(5.87 * t)
+    x = 1000 * np.sin(th) + rng.normal(0, 4, t.size)
+    y = 650 - 1000 * np.cos(th) + rng.normal(0, 4, t.size)
+    src = tmp_path / "track.txt"
+    np.savetxt(src, np.c_[t, x, y], fmt="%.4f\t%.2f\t%.2f")
+    with pytest.raises(ArtifactError, match=r"read as degrees the numbers do not make a pendulum's swing either: "
+                                            r"not an angle \(a position in pixels or mm\? then name the columns x and y\)"):
+        read_record(src, spec=TableSpec(columns=("t", "theta", "_")))
+    with pytest.raises(ArtifactError, match=r"column 2 is not an angle in deg"):
+        read_record(src, spec=TableSpec(columns=("t", "theta[deg]", "_")))
+    rec = read_record(src, spec=TableSpec(columns=("t", "x", "y"), pivot=(0.0, 650.0)))
+    assert np.max(np.abs(rec.theta)) < 0.25
 
 
 def test_position_given_as_theta_warns(tmp_path):
