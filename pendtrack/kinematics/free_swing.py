@@ -38,7 +38,10 @@ one: a motor or a hand drives it (a controller's swing-up, a child's swing), or 
 in the camera's plane (a conical or elliptical motion seen from the side). Each half swing's amplitude
 is half the rise or fall between two turning points (no centre to estimate: an offset does not enter);
 the level at each half swing is the median of :data:`DRIVE_HALF_SWINGS` in a row (a spike or a lost
-turning point moves none of them). The record is driven when a level's energy ``1 - cos A`` exceeds
+turning point moves none of them). Two tops (or bottoms) are at least :data:`DRIVE_APART` of the dominant
+period apart, and the band is at least the noise near the turning points (:data:`DRIVE_NEAR`, third
+differences): a tracker that jitters where the bob is slow makes no half swings of its own. The record
+is driven when a level's energy ``1 - cos A`` exceeds
 an earlier level's by more than :data:`DRIVE_RISE` and its amplitude by more than :data:`DRIVE_BANDS`
 bands: the record is refused (:class:`~pendtrack.kinematics.differentiate.KinematicsError`), since a
 model of a free swing fitted to it means nothing. Half swings that reach the top (amplitude above
@@ -82,6 +85,8 @@ DRIVE_BANDS = 4.0  # ... and its amplitude 4 bands (24 noise sigmas) above: a we
 DRIVE_HALF_SWINGS = 5  # the amplitude's level: the median of 5 half swings in a row
 DRIVE_PROMINENCE = 2.0  # a turning point stands out of the record by 2 bands (12 noise sigmas) at least
 DRIVE_TOP = math.pi - 0.05  # half swings this large reach the top: left out [rad]
+DRIVE_APART = 0.5  # two tops (or two bottoms) of the swing are at least this share of its period apart
+DRIVE_NEAR = 0.1  # the noise of the amplitudes: of the samples within this share of a period of a turning point
 LIFT_FIT_PERIODS = 0.1  # the first sample's angle and speed: a quadratic through this share of a period
 
 
@@ -325,11 +330,23 @@ def find_drive(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Drive | None
     band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(th))
     if not band > 0:
         return None
-    tops, _ = find_peaks(th, prominence=DRIVE_PROMINENCE * band)
-    bottoms, _ = find_peaks(-th, prominence=DRIVE_PROMINENCE * band)
+    # two tops (or bottoms) of a swing are a period apart: within half of one the highest only, so that a tracker's
+    # jitter where the bob is slow (noisier than the band, set by the fast samples) makes no turning points of its own
+    h = float(np.median(np.diff(tt)))
+    period = dominant_period(th, h)
+    apart = max(1, int(DRIVE_APART * period / h)) if math.isfinite(period) else 1
+    tops, _ = find_peaks(th, prominence=DRIVE_PROMINENCE * band, distance=apart)
+    bottoms, _ = find_peaks(-th, prominence=DRIVE_PROMINENCE * band, distance=apart)
     turns = np.sort(np.concatenate([tops, bottoms]))
     if turns.size < DRIVE_HALF_SWINGS + 2:
         return None
+    # the amplitudes are read at the turning points: a growth is judged against the noise there, which a tracker
+    # that jitters where the bob is slow makes larger than the noise of the whole record (third differences: the
+    # swing's curvature, largest at a turning point, cancels; white noise's have 20 times its variance)
+    near = max(2, int(DRIVE_NEAR * period / h)) if math.isfinite(period) else 2
+    around = np.unique(np.clip(turns[:, None] + np.arange(-near, near + 1)[None, :], 1, th.size - 3))
+    d3 = np.abs(th[around + 2] - 3.0 * th[around + 1] + 3.0 * th[around] - th[around - 1])
+    band = max(band, BAND_SIGMAS * 1.4826 * float(np.median(d3)) / math.sqrt(20.0))
     half = 0.5 * np.abs(np.diff(th[turns]))
     mid = 0.5 * (tt[turns[1:]] + tt[turns[:-1]])
     w = DRIVE_HALF_SWINGS
