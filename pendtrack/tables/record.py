@@ -355,7 +355,7 @@ def _drop_repeated_rows(raw: dict[str, Any]) -> int:
     if not same.any():
         return 0
     keep = np.concatenate([[True], ~same])
-    for key in ("t", "ok", "theta", "x", "y"):
+    for key in ("t", "ok", "theta", "x", "y", "t_unit"):
         if raw.get(key) is not None:
             raw[key] = np.asarray(raw[key])[keep]
     raw["columns"] = {name: np.asarray(v)[keep] for name, v in raw["columns"].items()}
@@ -379,7 +379,8 @@ def _check_times(t: np.ndarray, path: Path, *, unit: np.ndarray | None = None) -
                 f"a repeated time (one of {n_same})")
         why = ""
         if unit is not None and steps[i] == 0 and np.any(steps > 0) and unit.size == t.size:
-            spacing = float(np.median(steps[steps > 0]))
+            # the rows' spacing: the mean step (where times repeat, the steps that are not 0 are the rounding's)
+            spacing = min(float(np.median(steps[steps > 0])), float(t[-1] - t[0]) / (t.size - 1))
             if unit[i + 1] > spacing:
                 why = (f"; the times are written to {unit[i + 1]:g} s there, more coarsely than the rows' "
                        f"{1e3 * spacing:.3g}-ms spacing, and the rows do not fit one uniform grid within that "

@@ -743,6 +743,20 @@ def test_rounded_times_with_a_dropped_frame_are_refused_naming_the_rate(tmp_path
                     str(src), "a repeated time", "written to 0.1 s there", "--rate HZ")
 
 
+def test_a_long_record_of_rounded_times_and_angles_with_dropped_frames_is_refused_naming_the_rate(tmp_path):
+    # BY-Chai/PHY180-Projects@a71b1d94's long takes: t and theta [deg] both to three significant digits, two
+    # frames lost. Most of its time steps are 0 or 0.1 s (1 s from 100 s on), so the rows' 33-ms spacing is the
+    # mean step, not the median of the steps that are not 0; rows whose rounded t and theta both repeat are
+    # read once, and the times' units must follow them (the explanation and --rate were missing)
+    t = np.delete(np.arange(0, 127, 1 / 30), [1500, 2500])
+    theta = 20.0 * np.exp(-t / 200.0) * np.cos(2.0 * np.pi * t / 1.03)
+    src = tmp_path / "60deg_long.txt"
+    src.write_text("x y dx dy\n" + "".join(f"{a:.2E}\t{b:.2E}\t0.017\t0.05\n" for a, b in zip(t, theta)))
+    _one_line_error(invoke("kinematics", str(src), "--columns", "t,theta[deg],_,_", "--out", str(tmp_path / "o"),
+                           "-q"),
+                    str(src), "a repeated time", "written to 0.1 s there", "33.6-ms spacing", "--rate HZ")
+
+
 # --- a Python tracker's CSV: the bob's (x, y) written as a tuple or an array in one cell ---------
 
 U, V = 640.0 + 1000.0 * X, 600.0 - 1000.0 * Y  # image pixels of the bob: x right, rows counting downwards
