@@ -468,6 +468,12 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                               f"not an angle or positions: {RATE_ADVICE}") from None
         if short_header:
             raise ConfigError(f"{exc}; the header names {short_header} columns, the rows hold {width}") from None
+        if where == "header" and len(cols) > width >= 2:  # the hint counts the rows' columns, not the header's names
+            rest = ",_" * (width - 2)
+            xy = f" or --columns t,x,y{rest[2:]}" if width >= 3 else ""
+            raise ConfigError(f"header: names {len(cols)} columns, the rows hold {width}, and the names do not say "
+                              f"which is t and which theta: name the rows' columns, e.g. --columns t,theta{rest}{xy}"
+                              ) from None
         raise
     order = sorted(found.items(), key=lambda kv: kv[1])
     data = np.full((len(body), len(order)), np.nan)

@@ -692,3 +692,14 @@ def test_a_swing_over_the_top_is_read_though_it_lingers_above_its_pivot(tmp_path
     src.write_text("t x y\n" + _lines(t, x, y))
     with pytest.raises(ArtifactError, match="above the pivot"):
         read_record(src, spec=TableSpec(pivot=(0.0, -1.0)))
+
+
+def test_a_header_naming_more_columns_than_the_rows_hold_is_answered_with_the_rows_count(tmp_path):
+    # BY-Chai/PHY180-Projects@a71b1d94: Tracker tables headed "x y dx dy" whose rows hold t and theta [deg] only;
+    # the hint counted the header's four names (--columns t,theta,_,_), which the next run refused
+    src = tmp_path / "10cm.txt"
+    src.write_text("x y dx dy\n" + _lines(T, np.degrees(THETA)))
+    with pytest.raises(ArtifactError, match=r"names 4 columns, the rows hold 2, .* e\.g\. --columns t,theta$"):
+        read_record(src)
+    rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-12)
