@@ -468,7 +468,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                               f"not an angle or positions: {RATE_ADVICE}") from None
         if short_header:
             raise ConfigError(f"{exc}; the header names {short_header} columns, the rows hold {width}") from None
-        if where == "header" and len(cols) > width >= 2:  # the hint counts the rows' columns, not the header's names
+        if (where == "header" and rate_hz is None and len(cols) > width >= 2
+                and "missing column" in str(exc)):  # the hint counts the rows' columns, not the header's names
             rest = ",_" * (width - 2)
             xy = f" or --columns t,x,y{rest[2:]}" if width >= 3 else ""
             raise ConfigError(f"header: names {len(cols)} columns, the rows hold {width}, and the names do not say "
