@@ -9,6 +9,7 @@ kinematics artifact as it is, or this stage's derivatives of any other record, i
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +18,7 @@ import pandas as pd
 from pendtrack.artifacts import SCHEMAS, Artifact, Provenance, inputs_for, read_metadata, write_artifact
 from pendtrack.config import Config
 from pendtrack.errors import ArtifactError
-from pendtrack.kinematics.record import differentiate_record, kinematic_columns, kinematics_table
+from pendtrack.kinematics.record import differentiate_record, kinematic_columns, kinematics_table, sample_noise
 from pendtrack.stages import StageOutput, up_to_date
 from pendtrack.tables import Record, TableSpec, read_record
 from pendtrack.track.axle import fitted_pivot
@@ -76,10 +77,13 @@ def kinematics_input(path: str | Path, *, config: Config, table: TableSpec | Non
     kin = differentiate_record(rec.t, rec.theta, rec.ok, options=config.kinematics, source=rec.source)
     frame = kinematic_columns(kin)
     sections |= {**config.sections("kinematics"), "input": rec.info}
+    noise = sample_noise(rec.theta, kin)
     prov = Provenance(stage="kinematics", config=config.sections("kinematics"),
                       extra={**kin.info, "zero_reference": rec.zero_reference,
                              "zero_sigma_rad": rec.zero_sigma_rad, "theta_scale_rel": rec.theta_scale_rel,
-                             "marker_radius_px": rec.marker_radius_px})
+                             "marker_radius_px": rec.marker_radius_px,
+                             # the fit's residual is judged against it ("x the noise"), as on a kinematics artifact
+                             "noise_rad": noise if math.isfinite(noise) else None})
     return Artifact(frame, prov, rec.source), sections
 
 

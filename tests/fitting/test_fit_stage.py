@@ -186,3 +186,21 @@ def test_a_fit_that_misses_structure_says_so(tmp_path, shaken):
     else:  # the model the data came from leaves its noise, filtered: a ratio near 1
         assert not facts["misses_structure"] and facts["rms_over_noise"] < 1.5
         assert "the model misses structure" not in res.output
+
+
+def test_a_table_fitted_directly_is_judged_against_its_noise_as_through_kinematics(tmp_path):
+    # `fit table.txt` computed the kinematics itself but left the samples' noise out, so its fit never said
+    # "x the noise" where `kinematics` then `fit` did (a shaken support, as above: the same record both ways)
+    t, theta = swing("standard", STANDARD, seconds=20.0, theta0=2.5, noise=1e-3, seed=3)
+    theta = theta + 3e-3 * np.sin(2 * np.pi * 1.7 * t)
+    table = tmp_path / "swing.txt"
+    table.write_text("t [s]\ttheta [rad]\n" + "".join(f"{a!r}\t{b!r}\n" for a, b in zip(t, theta)))
+    args = ("--model", "standard", "--starts", "3", "--workers", "1", "-q")
+    direct = invoke("fit", str(table), *args, "--out", str(tmp_path / "direct"))
+    kin = invoke("kinematics", str(table), "-q", "--out", str(tmp_path / "k"))
+    assert direct.exit_code == 0 and kin.exit_code == 0, direct.output + kin.output
+    via = invoke("fit", str(tmp_path / "k" / "kinematics.parquet"), *args, "--out", str(tmp_path / "k"))
+    facts = [read_artifact(d / "fit.parquet", "fit").provenance.extra["models"]["standard"]
+             for d in (tmp_path / "direct", tmp_path / "k")]
+    assert facts[0]["rms_over_noise"] == pytest.approx(facts[1]["rms_over_noise"], rel=1e-9)
+    assert facts[0]["misses_structure"] and "x the noise: the model misses structure" in direct.output, via.output
