@@ -340,6 +340,16 @@ def read_lines(path: Path) -> list[tuple[int, str]]:
     return lines
 
 
+def _without_leading_empty_cells(lines: list[tuple[int, str]]) -> list[tuple[int, str]]:
+    """The lines without the empty cells every one of them starts with (``,,,t,theta``: a table that starts in a
+    spreadsheet's fourth column, saved as CSV); ``--columns`` then names the table's own columns."""
+    for sep in (",", ";"):
+        k = min((len(s) - len(s.lstrip(sep)) for _, s in lines), default=0)
+        if k > 0 and all(s[k:].strip() for _, s in lines):
+            return [(n, s[k:].lstrip()) for n, s in lines]
+    return lines
+
+
 def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | None = None,
               lines: list[tuple[int, str]] | None = None) -> dict[str, Any]:
     """The raw record of a text table (module docstring), in SI units (t [s], theta [rad]).
@@ -361,7 +371,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         ``t``, ``theta`` (or None), ``x``, ``y``, ``y_down``, ``ok``, ``cols`` (each column's
         :class:`ColumnName`), ``roles`` (role -> column index), ``kind`` ("table").
     """
-    lines = read_lines(path) if lines is None else lines
+    lines = _without_leading_empty_cells(read_lines(path) if lines is None else lines)
     lines, clock = clock_lines(lines, rate_hz=rate_hz)
     if clock is None or clock.kind != "serial_monitor":  # a monitor's payload is read so already
         lines = labelled_lines(lines)

@@ -703,3 +703,15 @@ def test_a_header_naming_more_columns_than_the_rows_hold_is_answered_with_the_ro
         read_record(src)
     rec = read_record(src, spec=TableSpec(columns=("t", "theta[deg]")))
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_a_table_starting_in_a_later_spreadsheet_column_reads_as_its_own_columns(tmp_path, sep):
+    # planT-444/phy180-pendulum@92719396: every row of the CSV starts with three empty cells (the table began in
+    # column D of the spreadsheet); its last data row was taken for the header and nothing was read
+    src = tmp_path / "table.csv"
+    src.write_text("".join(f"{sep * 3}{line}\n" for line in
+                           ["t" + sep + "theta (rad)", *(f"{a!r}{sep}{b!r}" for a, b in zip(T, THETA))]))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=0)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=0)
