@@ -172,6 +172,10 @@ def _check_measurement(outcomes: list[dict], bar: float = 0.9) -> None:
 # 2026-11-27: 8 of 9, the same decisions under the host's code and NUMBA_CPU_NAME=generic (before, memory seed
 # 1369428722 was named on the host only: the whole-record memory fit's profile over beta ended in one of two
 # basins, beta 0.71 or 0.09, as the rounding of its start decided; it now reads a fixed beta grid first).
+# 2026-12-02, AMD EPYC family 26 model 2: 7 of 9 on the host's code (8 under generic): memory seed 1369428722's
+# whole-record fit ended at beta 0.10 (quadratic drag undetermined, flagged, not kept) where beta 0.68 fits
+# 3e-4 lower; the whole-record fit of a model with memory now also starts at beta 0.2, 0.5 and 0.8 (the
+# others at the training fit): 8 of 9 under both, memory at beta 0.73 (host) and 0.68 (generic).
 @pytest.mark.slow  # 9 cases of 10-30 s (AMD EPYC): with the controls and artefacts, more than the default suite holds
 def test_single_effect_at_30fps():
     seeds = _seeds(11, 5)[:3] + _seeds(14, 6)
