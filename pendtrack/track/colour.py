@@ -115,10 +115,15 @@ def floored(feature: np.ndarray, colour: MarkerColour) -> np.ndarray:
 
 
 def chroma_feature(u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> np.ndarray:
-    """``wu (Cb - 128) + wv (Cr - 128)`` as float32, same shape as the planes."""
-    import cv2
+    """``wu (Cb - 128) + wv (Cr - 128)`` as float32, same shape as the planes.
 
-    return cv2.addWeighted(u, colour.wu, v, colour.wv, -128.0 * (colour.wu + colour.wv), dtype=cv2.CV_32F)
+    Element by element in float64, rounded once to float32: each pixel's value depends on its own Cb, Cr only.
+    OpenCV 5.1's ``addWeighted`` rounds a pixel differently in its vector loop and in the row's tail, so a
+    window's feature depended on where the window ended (a template and a search window disagreed by 1e-5).
+    """
+    f = colour.wu * (u.astype(np.float64) - 128.0)
+    f += colour.wv * (v.astype(np.float64) - 128.0)
+    return f.astype(np.float32)
 
 
 def half_resolution_feature(y: np.ndarray, u: np.ndarray, v: np.ndarray, colour: MarkerColour) -> np.ndarray:

@@ -394,3 +394,21 @@ def test_level_step_keeps_every_pixel_of_small_frames_and_20000_of_large_ones():
     for h, w in ((360, 640), (540, 960), (1080, 1920)):  # half-resolution grids of 720p, 1080p and 4K
         s = level_step(h * w)
         assert s > 1 and len(range(0, h, s)) * len(range(0, w, s)) >= 20_000
+
+
+def test_chroma_feature_of_a_window_is_that_part_of_the_whole_planes():
+    # OpenCV 5.1's addWeighted rounds a pixel differently in its vector loop and in a row's tail: a window's
+    # feature then depended on where the window ended (1e-5), and the filled template and search windows disagreed
+    from pendtrack.track.colour import chroma_feature
+
+    rng = np.random.default_rng(11)
+    u = rng.integers(0, 256, (60, 97), dtype=np.uint8)
+    v = rng.integers(0, 256, (60, 97), dtype=np.uint8)
+    colour = parse_marker_colour("pink")
+    whole = chroma_feature(u, v, colour)
+    assert whole.dtype == np.float32
+    expected = (colour.wu * (u.astype(np.float64) - 128) + colour.wv * (v.astype(np.float64) - 128)).astype(np.float32)
+    np.testing.assert_array_equal(whole, expected)
+    for x0, y0, w, h in ((0, 0, 97, 60), (3, 5, 29, 17), (17, 2, 64, 40), (40, 30, 57, 30), (1, 1, 7, 3)):
+        np.testing.assert_array_equal(chroma_feature(u[y0:y0 + h, x0:x0 + w], v[y0:y0 + h, x0:x0 + w], colour),
+                                      whole[y0:y0 + h, x0:x0 + w])
