@@ -48,7 +48,8 @@ class KinematicsTable:
 def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, options: KinematicsConfig,
                          source: Any = None) -> KinematicsResult:
     """:func:`savgol_kinematics` with ``[kinematics]``'s window [s], order, gap bridging and minimum
-    segment; a failure names ``source``.
+    segment; a failure names ``source``. A record too sparse to follow its swing (:func:`too_sparse`) is a
+    KinematicsError.
 
     A hold before the release and a catch at the end (:mod:`pendtrack.kinematics.free_swing`) are
     no free swing: their samples get ``ok = False`` (their rows stay) and the derivatives start at
@@ -56,6 +57,9 @@ def differentiate_record(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, op
     (the first sample after the hold [s], or None), ``n_held``, ``free_until_s`` (the first sample
     of the catch [s], or None) and ``n_caught``.
     """
+    sparse = too_sparse(np.asarray(theta, dtype=float)[np.asarray(ok, dtype=bool)])
+    if sparse:
+        raise KinematicsError(f"theta is sampled too sparsely to follow the swing: {sparse}", path=source)
     ok, hold, catch = free_swing(t, theta, ok, source=source)
     try:
         kin = savgol_kinematics(t, theta, ok, window_s=options.savgol_window_s, order=options.savgol_order,
@@ -89,6 +93,37 @@ def sample_noise(theta: np.ndarray, kin: KinematicsResult) -> float:
         return math.nan
     resid = theta[use] - kin.theta[use]
     return 1.4826 * float(np.median(np.abs(resid - np.median(resid)))) / math.sqrt(1.0 - centre_weight(kin))
+
+
+ALTERNATING_SHARE = 0.5  # sign changes about the median on more than half the steps: under 4 samples a period
+# |steps| of (-1)^i theta against |theta|: a swing's envelope, ~0.3 once jittered times are resampled (noise: ~1.4)
+ENVELOPE_SMOOTH = 0.5
+
+
+def too_sparse(theta: np.ndarray) -> str:
+    """Why ``theta`` is sampled too sparsely to follow its swing, or "" when it is not.
+
+    A sinusoid sampled N times a period changes sign about its centre on 2/N of the steps. A table of the
+    turning points (or of one sample a half period) changes sign on every step, and ``(-1)^i theta`` is
+    then its slowly decaying envelope; a record of noise changes sign on half its steps too, but its
+    ``(-1)^i theta`` is noise again. Savitzky-Golay derivatives of such a table are meaningless.
+    """
+    x = np.asarray(theta, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size < 8:
+        return ""
+    d = x - float(np.median(x))
+    sign = np.sign(d)
+    steps = sign[1:] * sign[:-1]
+    share = float(np.mean(steps < 0))
+    if share <= ALTERNATING_SHARE:
+        return ""
+    envelope = d * np.where(np.arange(d.size) % 2 == 0, 1.0, -1.0)
+    if np.median(np.abs(np.diff(envelope))) >= ENVELOPE_SMOOTH * np.median(np.abs(d)):
+        return ""
+    return (f"it changes sign between {share:.0%} of its consecutive samples, {x.size} samples from "
+            f"{np.abs(d).max():.3g} rad down: fewer than 4 samples a period (a table of turning points, or of one "
+            "sample a half swing?); pendtrack needs the angle sampled through each swing, tens of samples a period")
 
 
 def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str:

@@ -280,6 +280,9 @@ def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnNam
     def names(line: str) -> list[ColumnName | None] | None:
         fields = header_fields(line)
         cols = _parse_all(fields)
+        if not _names_columns(cols):
+            fields = _unit_only_names(fields) or fields
+            cols = _parse_all(fields)
         if cols is not None and pairs and len(fields) == len(sizes):
             cols = [c for f, col, k in zip(fields, cols, sizes)
                     for c in (_pair_names(f) if k == 2 else [col if k == 1 else None] * k)]
@@ -293,6 +296,8 @@ def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnNam
     if chosen is None:  # the last line, for its error
         return [parse_column_name(f) for f in header_fields(preamble[-1][1])]
     fields = header_fields(preamble[chosen][1])
+    if not _names_columns(_parse_all(fields)):
+        fields = _unit_only_names(fields) or fields
     if chosen + 1 < len(preamble):
         fields = _with_units(fields, header_fields(preamble[chosen + 1][1]))
     cols = [parse_column_name(f) for f in fields]
@@ -302,6 +307,19 @@ def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnNam
     if any("_{" in f for f in fields) and {"x", "y"} <= {c.role for c in cols if c is not None}:
         cols = [None if c is not None and c.role == "theta" else c for c in cols]  # Tracker's θ: about its origin
     return cols
+
+
+def _unit_only_names(fields: list[str]) -> list[str] | None:
+    """Column names for a header of units alone (``s, rad``; ``(ms)  [deg]``; ``s  px  px``): the one time unit is
+    t, the one angle unit theta, or two lengths x and y; a rate (``rad/s``) or an empty field is passed over.
+    None when the units do not say which column is which."""
+    units = [_unbracketed(f.strip().strip('"').strip()).lower() for f in fields]
+    kinds = ["t" if u in TIME_UNITS else "theta" if u in ANGLE_UNITS else "xy" if u in LENGTH_UNITS else
+             "_" if u in RATE_UNITS or not u else None for u in units]
+    if None in kinds or kinds.count("t") != 1 or (kinds.count("theta"), kinds.count("xy")) not in ((1, 0), (0, 2)):
+        return None
+    xy = iter(("x", "y"))
+    return [f"{next(xy) if k == 'xy' else k}[{u}]" if k != "_" else "_" for k, u in zip(kinds, units)]
 
 
 def _pair_names(field: str) -> list[ColumnName | None]:

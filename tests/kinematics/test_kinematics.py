@@ -20,6 +20,7 @@ from pendtrack.kinematics import (
     negative_damping, omega0_from_kinematics, phase, phase_speed, savgol_kinematics, turning_points, window_points,
 )
 from pendtrack.models import simulate
+from pendtrack.kinematics.record import too_sparse
 from pendtrack.stages.kinematics import kinematics_stage
 
 FPS = 120.0
@@ -486,6 +487,34 @@ def test_an_angle_that_does_not_swing_is_refused_not_differentiated(tmp_path, ca
     assert len(lines) == 1 and lines[0].startswith("error: ") and "record.csv" in lines[0]
     assert "theta does not swing" in lines[0] and "--columns" in lines[0]
     assert not (out / "kinematics.parquet").exists()
+
+
+@pytest.mark.parametrize("command", ["kinematics", "fit"])
+def test_a_table_of_turning_points_is_refused_as_too_sparse(tmp_path, command):
+    # a table of the turning points alone (a sample every half period, its times jittered by the frames they were
+    # read from): refused as "does not swing ... inside its own noise band (3.47 rad)" with a degrees hint, as if
+    # the column were not the angle, and `fit` said "too few usable samples"
+    rng = np.random.default_rng(13)
+    half = 0.53
+    t = np.arange(0.0, 200.0, half) + rng.normal(0.0, 0.01, 378)
+    theta = 0.3 * np.exp(-t / 300.0) * np.cos(np.pi * np.round(t / half))
+    table = tmp_path / "turns.csv"
+    np.savetxt(table, np.c_[t, theta], delimiter=",", header="t,theta", comments="", fmt="%.5f")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli, [command, str(table), "--out", str(out), "-q"])
+    lines = [ln for ln in res.output.splitlines() if ln.strip() and not ln.startswith("WARNING")]
+    assert res.exit_code == 2, res.output
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "turns.csv" in lines[0]
+    assert "too sparsely" in lines[0] and "fewer than 4 samples a period" in lines[0] and "deg" not in lines[0]
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_a_swing_sampled_five_times_a_period_or_noise_is_not_called_too_sparse():
+    rng = np.random.default_rng(14)
+    t = np.arange(400) / 5.0  # 5 samples a period: sign changes on 2 of 5 steps
+    assert too_sparse(0.3 * np.cos(2.0 * np.pi * t + 0.3)) == ""
+    assert too_sparse(1e-3 * rng.standard_normal(400)) == ""  # noise changes sign on half its steps, no envelope
+    assert "fewer than 4" in too_sparse(0.3 * np.cos(2.0 * np.pi * t / 0.4 + 0.3))  # 2 samples a period
 
 
 def test_a_small_swing_above_its_noise_is_differentiated(tmp_path):

@@ -324,6 +324,28 @@ def test_a_spreadsheets_units_line_in_brackets(tmp_path, units):
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
 
 
+@pytest.mark.parametrize("header, scale, unit", [("s,rad", 1.0, "rad"), ("(ms),(°)", 1e3, "deg"),
+                                                  ("s,rad,rad/s", 1.0, "rad")])
+def test_a_header_of_units_alone_names_time_and_angle(tmp_path, header, scale, unit):
+    # a logger that heads its columns with their units only ('s,rad'): refused as "missing column 't'", although
+    # the units say which column is the time and which the angle; a rate's column (rad/s) is passed over
+    src = tmp_path / "log.csv"
+    angle = np.degrees(THETA) if unit == "deg" else THETA
+    cols = (scale * T, angle) + ((np.gradient(THETA, T),) if header.count(",") == 2 else ())
+    src.write_text(header + "\n" + _rows(*cols, sep=","))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=ATOL)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
+@pytest.mark.parametrize("header", ["s,rad,deg", "rad,deg", "s,s,rad"])
+def test_a_header_of_units_that_do_not_say_which_column_is_which_is_refused(tmp_path, header):
+    src = tmp_path / "log.csv"
+    src.write_text(header + "\n" + _rows(*(T, THETA, THETA)[: header.count(",") + 1], sep=","))
+    with pytest.raises(ArtifactError, match="missing column"):
+        read_record(src)
+
+
 # --- Logger Pro's and Graphical Analysis' own files ------------------------------------------------
 
 def _vernier_xml(runs: list[tuple[str, list[tuple[str, str, list[str]]]]]) -> str:
