@@ -272,6 +272,13 @@ def read_record(path: str | Path, *, spec: TableSpec | None = None, pivot_fit: P
                 "each is read once")
         log.warning("%s: %s", path, text)
         info["warnings"].append(text)
+    if raw.get("footer"):
+        lines = raw["footer"]
+        text = (f"lines {lines[0][0]}-{lines[-1][0]} below the table ({lines[0][1][:30]!r}, ...) are a summary, "
+                "not samples: passed over" if len(lines) > 1 else
+                f"line {lines[0][0]} below the table ({lines[0][1][:30]!r}) is a summary, not a sample: passed over")
+        log.warning("%s: %s", path, text)
+        info["warnings"].append(text)
     if "tracker" in raw:
         info["tracker"] = raw["tracker"]
     if raw.get("clock") is not None:

@@ -395,6 +395,7 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         lines = labelled_lines(lines)
     start = next((i for i, (_, s) in enumerate(lines) if _layout(s) is not None), len(lines))
     preamble, body = lines[:start], lines[start:]
+    body, footer = _without_summary_footer(body)
     if not body:
         raise ConfigError("no row of numbers: expected one sample per row (t, theta, ... in columns)"
                           + (f" below the header {preamble[-1][1][:60]!r}" if preamble else ""))
@@ -535,7 +536,32 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
         record["t_unit"] = t_unit
     if clock is not None:
         record["clock"] = clock
+    if footer:
+        record["footer"] = footer
     return record
+
+
+FOOTER_MAX = 10  # summary lines below a spreadsheet's table: mean, std, min, max, a fit's results
+
+
+def _without_summary_footer(body: list[tuple[int, str]]) -> tuple[list[tuple[int, str]], list[tuple[int, str]]]:
+    """``(body, footer)``: the lines below the last row of numbers that start with a word (a spreadsheet's
+    ``mean,0.0012`` or ``Period (s):;1.07`` under its table, a logger's ``Stopped``), at most :data:`FOOTER_MAX` of
+    them; ``footer`` is empty when the table has none. A word within the rows stays an error naming its line."""
+    last = len(body)
+    while last > 0 and _NUMBER_RE.match(_first_cell(body[last - 1][1])) is None:
+        last -= 1
+    footer = body[last:]
+    if (not footer or last == 0 or len(footer) > FOOTER_MAX
+            or not all(re.match(r"[^\W\d_]", _first_cell(line)) for _, line in footer)):
+        return body, []
+    return body[:last], footer
+
+
+def _first_cell(line: str) -> str:
+    """The first cell of a line, whatever the separator (tab, semicolon, comma, white space), without quotes."""
+    cell = re.split(r"[\t;,]|\s+", line.strip(), maxsplit=1)[0]
+    return cell.strip().strip('"').strip()
 
 
 POLAR_TOL = (0.02, 1.0)  # [rad], [deg]: Tracker writes its θ to 0.1 degree, and x, y to 4 digits (~1e-3 rad)

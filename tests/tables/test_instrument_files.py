@@ -346,6 +346,21 @@ def test_a_header_of_units_that_do_not_say_which_column_is_which_is_refused(tmp_
         read_record(src)
 
 
+@pytest.mark.parametrize("footer", ["\nmean,0.0012\nstd,0.21\n", "Period (s):,1.26\n", "Stopped\n"])
+def test_summary_lines_below_a_table_are_passed_over_with_a_warning(tmp_path, footer):
+    # a spreadsheet's table with its mean and standard deviation under it, saved as CSV: refused at "line 363:
+    # expected numbers t, theta, got 'mean,0.0012'", although every sample above it reads
+    src = tmp_path / "sheet.csv"
+    src.write_text("t (s),theta (rad)\n" + _rows(T, THETA, sep=",") + footer)
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    assert any("below the table" in w and "passed over" in w for w in rec.warnings)
+    rows = _rows(T, THETA, sep=",").splitlines()
+    src.write_text("t (s),theta (rad)\n" + "\n".join(rows[:5] + ["mean,0.0012"] + rows[5:]) + "\n")
+    with pytest.raises(ArtifactError, match="line 7: expected numbers"):  # a word among the rows is still an error
+        read_record(src)
+
+
 # --- Logger Pro's and Graphical Analysis' own files ------------------------------------------------
 
 def _vernier_xml(runs: list[tuple[str, list[tuple[str, str, list[str]]]]]) -> str:
