@@ -13,14 +13,14 @@ implementations of these signal facts in pendtrack: discovery and report import 
 
 from pendtrack.kinematics.analysis import (
     Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping, swing_centre_shift,
-    negative_damping_flags, negative_damping_fraction, phase, phase_speed, turning_points,
+    negative_damping_flags, negative_damping_fraction, phase, phase_speed, turning_points, turning_values,
 )
 from pendtrack.kinematics.differentiate import (
     KinematicsError, KinematicsResult, savgol_kinematics, savgol_uniform, window_points,
 )
 from pendtrack.kinematics.initial import (
     InitialAnalysis, analyse, estimate_omega0_from_angle, omega0_from_kinematics, record_turning_points,
-    smoothing_moments,
+    record_turning_values, smoothing_moments,
 )
 from pendtrack.kinematics.free_swing import Catch, Drive, Hold, Lift, find_catch, find_drive, find_hold, find_lift
 
@@ -28,7 +28,9 @@ __all__ = [
     "Omega0Estimate", "TurningPoints", "amplitudes", "delta_alpha", "estimate_omega0", "negative_damping",
     "swing_centre_shift",
     "negative_damping_flags", "negative_damping_fraction", "phase", "phase_speed", "turning_points",
+    "turning_values",
     "KinematicsError", "KinematicsResult", "savgol_kinematics", "savgol_uniform", "window_points", "InitialAnalysis", "analyse",
-    "omega0_from_kinematics", "estimate_omega0_from_angle", "record_turning_points", "smoothing_moments",
+    "omega0_from_kinematics", "estimate_omega0_from_angle", "record_turning_points", "record_turning_values",
+    "smoothing_moments",
     "Catch", "Drive", "Hold", "Lift", "find_catch", "find_drive", "find_hold", "find_lift",
 ]

@@ -14,6 +14,7 @@ from pendtrack.errors import FitError
 from pendtrack.kinematics.analysis import (
     NoRestoringTorque, Omega0Estimate, TurningPoints, amplitudes, delta_alpha, estimate_omega0, negative_damping,
     negative_damping_fraction, phase, phase_speed, savgol_bias_moments, swing_centre_shift, turning_points,
+    turning_values,
 )
 from pendtrack.kinematics.differentiate import KinematicsResult, savgol_kinematics
 
@@ -70,6 +71,12 @@ def record_turning_points(kin: KinematicsResult) -> TurningPoints:
     return turning_points(kin.t, kin.theta, kin.omega, kin.alpha, kin.ok, kin.segment, edge_s=edge)
 
 
+def record_turning_values(kin: KinematicsResult, tp: TurningPoints) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~pendtrack.kinematics.analysis.turning_values` of a differentiated record: ``(theta_ext, alpha_ext)``
+    for eq. straightline [rad], [rad/s^2]."""
+    return turning_values(kin.t, kin.theta, kin.alpha, tp, kin.ok, kin.segment)
+
+
 def smoothing_moments(info: Mapping[str, Any]) -> tuple[float, float] | None:
     """:func:`~pendtrack.kinematics.analysis.savgol_bias_moments` of the filter an ``info`` describes.
 
@@ -92,8 +99,8 @@ def omega0_from_kinematics(kin: KinematicsResult, *, correct_smoothing: bool = T
     FitError
         Too few turning points or no restoring slope.
     """
-    tp = record_turning_points(kin)
-    return estimate_omega0(tp.theta, tp.alpha, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
+    th_ext, al_ext = record_turning_values(kin, record_turning_points(kin))
+    return estimate_omega0(th_ext, al_ext, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
 
 
 def estimate_omega0_from_angle(t: Any, theta: Any, ok: Any = None, *,
@@ -130,7 +137,8 @@ def analyse(kin: KinematicsResult, *, omega0: float | None = None, correct_smoot
     est: Omega0Estimate | None
     reason, restoring = "", True
     try:
-        est = estimate_omega0(tp.theta, tp.alpha, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
+        th_ext, al_ext = record_turning_values(kin, tp)
+        est = estimate_omega0(th_ext, al_ext, sg_moments=smoothing_moments(kin.info) if correct_smoothing else None)
     except NoRestoringTorque as exc:
         est, reason, restoring = None, str(exc), False
     except FitError as exc:

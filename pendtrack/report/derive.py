@@ -194,7 +194,7 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     provenance ``extra``) the Savitzky-Golay bias is removed from ``omega0`` as the stage does.
     """
     from pendtrack.kinematics import (KinematicsResult, estimate_omega0, record_turning_points,
-                                      smoothing_moments)
+                                      record_turning_values, smoothing_moments)
 
     t, th, om, al = (kin[c].to_numpy(float) for c in ("t", "theta", "omega", "alpha"))
     seg = kin["segment"].to_numpy() if "segment" in kin.columns else np.zeros(t.size, dtype=np.int64)
@@ -207,11 +207,12 @@ def turning_points(kin: pd.DataFrame, *, window_s: float, order: int,
     record = KinematicsResult(t=t, theta=th, omega=om, alpha=al, ok=kin["ok"].to_numpy(bool), segment=seg,
                                          info=info)
     tp = record_turning_points(record)
-    raw = estimate_omega0(tp.theta, tp.alpha)
+    th_ext, al_ext = record_turning_values(record, tp)
+    raw = estimate_omega0(th_ext, al_ext)
     moments = smoothing_moments(info)
-    est = raw if moments is None else estimate_omega0(tp.theta, tp.alpha, sg_moments=moments)
+    est = raw if moments is None else estimate_omega0(th_ext, al_ext, sg_moments=moments)
     corrected = moments is not None
-    return TurningPoints(theta_ext=np.asarray(tp.theta, float), alpha_ext=np.asarray(tp.alpha, float),
+    return TurningPoints(theta_ext=th_ext, alpha_ext=al_ext,
                          omega0=float(est.omega0), omega0_stderr=finite_number(est.stderr), omega0_raw=float(raw.omega0),
                          corrected=corrected)
 
