@@ -95,35 +95,40 @@ def sample_noise(theta: np.ndarray, kin: KinematicsResult) -> float:
     return 1.4826 * float(np.median(np.abs(resid - np.median(resid)))) / math.sqrt(1.0 - centre_weight(kin))
 
 
-ALTERNATING_SHARE = 0.5  # sign changes about the median on more than half the steps: under 4 samples a period
-# |steps| of (-1)^i theta against |theta|: a swing's envelope, ~0.3 once jittered times are resampled (noise: ~1.4)
-ENVELOPE_SMOOTH = 0.5
+MIN_SAMPLES_PER_PERIOD = 8  # below, the 5-point Savitzky-Golay window spans most of a period: Omega0 read
+# +0.3 % at 8 samples a period, +0.9 % at 7, +8 % at 5.5 (a clean swing), its standard error 0.01 %
+SAMPLED_OSCILLATION_R2 = 0.5  # share of theta_{k+1} + theta_{k-1} that c theta_k explains (a sampled oscillation;
+# noise: ~0)
 
 
 def too_sparse(theta: np.ndarray) -> str:
     """Why ``theta`` is sampled too sparsely to follow its swing, or "" when it is not.
 
-    A sinusoid sampled N times a period changes sign about its centre on 2/N of the steps. A table of the
-    turning points (or of one sample a half period) changes sign on every step, and ``(-1)^i theta`` is
-    then its slowly decaying envelope; a record of noise changes sign on half its steps too, but its
-    ``(-1)^i theta`` is noise again. Savitzky-Golay derivatives of such a table are meaningless.
+    A swing sampled every h at angular frequency w obeys ``theta_{k+1} + theta_{k-1} = 2 cos(w h) theta_k``
+    (about its centre; exactly for a sinusoid): the least-squares ``c`` of that relation gives the samples
+    per period, ``2 pi / arccos(c / 2)``, where it explains most of the left side (noise does not). Under
+    :data:`MIN_SAMPLES_PER_PERIOD` (a table of turning points, points picked by hand every few frames) the
+    Savitzky-Golay derivatives, and every number from them, are biased.
     """
     x = np.asarray(theta, dtype=float)
     x = x[np.isfinite(x)]
     if x.size < 8:
         return ""
-    d = x - float(np.median(x))
-    sign = np.sign(d)
-    steps = sign[1:] * sign[:-1]
-    share = float(np.mean(steps < 0))
-    if share <= ALTERNATING_SHARE:
+    x = x - float(np.median(x))
+    y = x[2:] + x[:-2]
+    z = x[1:-1]
+    zz = float(z @ z)
+    if zz <= 0.0:
         return ""
-    envelope = d * np.where(np.arange(d.size) % 2 == 0, 1.0, -1.0)
-    if np.median(np.abs(np.diff(envelope))) >= ENVELOPE_SMOOTH * np.median(np.abs(d)):
+    c = float(z @ y) / zz
+    explained = 1.0 - float(np.sum((y - c * z) ** 2)) / max(float(y @ y), 1e-300)
+    n = 2.0 * math.pi / math.acos(min(max(0.5 * c, -1.0), 1.0)) if c < 2.0 else math.inf
+    if explained < SAMPLED_OSCILLATION_R2 or n >= MIN_SAMPLES_PER_PERIOD:
         return ""
-    return (f"it changes sign between {share:.0%} of its consecutive samples, {x.size} samples from "
-            f"{np.abs(d).max():.3g} rad down: fewer than 4 samples a period (a table of turning points, or of one "
-            "sample a half swing?); pendtrack needs the angle sampled through each swing, tens of samples a period")
+    return (f"about {n:.1f} samples a period ({x.size} samples that follow theta[k+1] + theta[k-1] = "
+            f"{c:.2f} theta[k], a sampled oscillation), fewer than {MIN_SAMPLES_PER_PERIOD}: its derivatives and "
+            "Omega0 would be biased (a table of turning points, or points picked every few frames?); pendtrack "
+            "needs the angle sampled through each swing: track every frame")
 
 
 def no_swing(theta: np.ndarray, kin: KinematicsResult, *, n_turning: int) -> str:

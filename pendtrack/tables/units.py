@@ -111,7 +111,7 @@ class ColumnName:
 
 
 def split_unit(text: str) -> tuple[str, str]:
-    """(name, unit) of ``name [unit]``, ``name (unit)``, ``name_unit``, ``name unit`` or ``name°``."""
+    """(name, unit) of ``name [unit]``, ``name (unit)``, ``name_unit``, ``name unit``, ``name/unit`` or ``name°``."""
     m = _UNIT_RE.match(text)
     if m:
         return m.group("name").strip(), m.group("unit").strip()
@@ -119,6 +119,9 @@ def split_unit(text: str) -> tuple[str, str]:
         head, _, tail = text.rpartition(sep)
         if head and tail in ALL_UNITS:
             return head.strip(), tail
+    head, _, tail = text.partition("/")  # "Time/s", "Angle/rad", "AngVel/rad/s": the quantity over its unit
+    if head.strip() and head.strip() not in ALL_UNITS and (tail.strip() in ALL_UNITS or tail.strip() in RATE_UNITS):
+        return head.strip(), tail.strip()
     if text.endswith("°"):
         return text[:-1].strip(), "°"
     return text, ""

@@ -338,6 +338,20 @@ def test_a_header_of_units_alone_names_time_and_angle(tmp_path, header, scale, u
     np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
 
 
+def test_a_header_of_quantities_over_their_units(tmp_path):
+    # a remote lab's encoder log (timdrysdale/pendulum-data): 'Time/s,Angle/rad,AngVel/rad/s' was refused as
+    # "missing column 't' (recognised: none)"; the angular velocity, a rate, is passed over
+    src = tmp_path / "run.csv"
+    src.write_text("Time/s,Angle/rad,AngVel/rad/s\n" + _rows(T, THETA, np.gradient(THETA, T), sep=","))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=ATOL)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+    src.write_text("Time/ms,Angle/deg\n" + _rows(1e3 * T, np.degrees(THETA), sep=","))
+    rec = read_record(src)
+    np.testing.assert_allclose(rec.t, T, rtol=0, atol=ATOL)
+    np.testing.assert_allclose(rec.theta, THETA, rtol=0, atol=ATOL)
+
+
 @pytest.mark.parametrize("header", ["s,rad,deg", "rad,deg", "s,s,rad"])
 def test_a_header_of_units_that_do_not_say_which_column_is_which_is_refused(tmp_path, header):
     src = tmp_path / "log.csv"
