@@ -310,16 +310,36 @@ def _header(preamble: list[tuple[int, str]], sizes: list[int]) -> list[ColumnNam
 
 
 def _unit_only_names(fields: list[str]) -> list[str] | None:
-    """Column names for a header of units alone (``s, rad``; ``(ms)  [deg]``; ``s  px  px``): the one time unit is
-    t, the one angle unit theta, or two lengths x and y; a rate (``rad/s``) or an empty field is passed over.
-    None when the units do not say which column is which."""
-    units = [_unbracketed(f.strip().strip('"').strip()).lower() for f in fields]
-    kinds = ["t" if u in TIME_UNITS else "theta" if u in ANGLE_UNITS else "xy" if u in LENGTH_UNITS else
-             "_" if u in RATE_UNITS or not u else None for u in units]
-    if None in kinds or kinds.count("t") != 1 or (kinds.count("theta"), kinds.count("xy")) not in ((1, 0), (0, 2)):
-        return None
+    """Column names for a header whose columns are named by their units (``s, rad``; ``(ms)  [deg]``; ``s  px  px``;
+    ``t  rad  xerr  yerr``): a field that is a time unit alone is t, an angle unit alone theta, two lengths x and y,
+    where no field names that column; a rate (``rad/s``), an empty field and, beside them, a word pendtrack does
+    not know are passed over. None when the units do not say which column is which."""
+    out: list[str] = []
+    roles: list[str] = []
     xy = iter(("x", "y"))
-    return [f"{next(xy) if k == 'xy' else k}[{u}]" if k != "_" else "_" for k, u in zip(kinds, units)]
+    lengths = sum(_unbracketed(f.strip().strip('"').strip()).lower() in LENGTH_UNITS for f in fields)
+    for field in fields:
+        unit = _unbracketed(field.strip().strip('"').strip()).lower()
+        col = (_parse_all([field]) or [None])[0] if unit not in ALL_UNITS else None
+        if col is not None and col.role != "_":
+            out.append(field)
+            roles.append("xy" if col.role in ("x", "y") else col.role)
+        elif unit in TIME_UNITS:
+            out.append(f"t[{unit}]")
+            roles.append("t")
+        elif unit in ANGLE_UNITS:
+            out.append(f"theta[{unit}]")
+            roles.append("theta")
+        elif unit in LENGTH_UNITS and lengths == 2:
+            out.append(f"{next(xy)}[{unit}]")
+            roles.append("xy")
+        else:
+            out.append("_")
+    if roles.count("t") != 1 or (roles.count("theta"), roles.count("xy")) not in ((1, 0), (0, 2)):
+        return None
+    if all(_unbracketed(f.strip().strip('"').strip()).lower() not in ALL_UNITS for f in fields):
+        return None  # no unit named a column: the header's own names did not make t and theta
+    return out
 
 
 def _pair_names(field: str) -> list[ColumnName | None]:

@@ -325,10 +325,11 @@ def test_a_spreadsheets_units_line_in_brackets(tmp_path, units):
 
 
 @pytest.mark.parametrize("header, scale, unit", [("s,rad", 1.0, "rad"), ("(ms),(°)", 1e3, "deg"),
-                                                  ("s,rad,rad/s", 1.0, "rad")])
+                                                  ("s,rad,rad/s", 1.0, "rad"), ("t,rad,xerr", 1.0, "rad")])
 def test_a_header_of_units_alone_names_time_and_angle(tmp_path, header, scale, unit):
     # a logger that heads its columns with their units only ('s,rad'): refused as "missing column 't'", although
-    # the units say which column is the time and which the angle; a rate's column (rad/s) is passed over
+    # the units say which column is the time and which the angle; a rate's column (rad/s) is passed over, and so is
+    # an unknown word beside a column named by its unit (zjs0221/PHY180-Pendulum-Project's 't rad xerr yerr')
     src = tmp_path / "log.csv"
     angle = np.degrees(THETA) if unit == "deg" else THETA
     cols = (scale * T, angle) + ((np.gradient(THETA, T),) if header.count(",") == 2 else ())
