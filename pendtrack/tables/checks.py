@@ -116,6 +116,7 @@ def theta_not_radians(theta: np.ndarray) -> tuple[str, bool] | None:
         to declare degrees), False where they do not either (not an angle: a position, say).
     """
     why = angle_impossible(theta)
+    far_in_degrees = False  # never turning back twice, and beyond FAR_TURNS full turns even in degrees (a counter)
     if why is None:
         ext = turning_values(theta)
         finite = np.asarray(theta, float)[np.isfinite(theta)]
@@ -123,7 +124,11 @@ def theta_not_radians(theta: np.ndarray) -> tuple[str, bool] | None:
             return None
         why = (f"theta reaches {float(np.max(np.abs(finite))):.4g} without turning back twice, beyond "
                f"{FAR_TURNS:g} full turns")
+        far_in_degrees = math.radians(float(np.max(np.abs(finite)))) > FAR_TURNS * TURN
     why = why.replace(" rad ", " ", 1)  # the numbers as written: their unit is the question
+    if far_in_degrees:
+        return (f"{why}, in degrees too: not an angle (a count, a clock?); name the column that holds the angle "
+                "with --columns"), False
     if angle_impossible(np.radians(np.asarray(theta, float))) is None:
         return f"{why}: not radians, it looks like degrees", True
     return (f"{why}; read as degrees the numbers do not make a pendulum's swing either: not an angle (a position "

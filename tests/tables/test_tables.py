@@ -520,6 +520,18 @@ def test_pixels_are_no_angle_in_any_unit(tmp_path):
     assert np.max(np.abs(rec.theta)) < 0.25
 
 
+def test_a_count_that_only_grows_is_no_angle_in_any_unit(tmp_path):
+    # a light gate's log (gkowash/Pendulum-Lab): event number, then the board's millis() at each event, no header;
+    # read as t, theta the millis were called "it looks like degrees", and declared in degrees "does not swing"
+    events = np.arange(1, 200)
+    millis = 6944 + 830 * events + np.random.default_rng(9).integers(-5, 5, events.size)
+    src = tmp_path / "gate.csv"
+    src.write_text("".join(f"{e},{m}\n" for e, m in zip(events, millis)))
+    with pytest.raises(ArtifactError, match=r"in degrees too: not an angle \(a count, a clock\?\)") as err:
+        read_record(src)
+    assert "deg]" not in str(err.value)
+
+
 def test_position_given_as_theta_warns(tmp_path):
     src = tmp_path / "x.txt"
     src.write_text(_lines(T, X + 0.5))  # x [m] of a pivot 0.8 m from the origin, read as theta
