@@ -534,6 +534,8 @@ def test_a_swing_sampled_under_eight_times_a_period_is_too_sparse_noise_and_ten_
     assert too_sparse(swing(10.0)) == ""
     assert too_sparse(swing(10.0) + 3e-3 * rng.standard_normal(400)) == ""
     assert too_sparse(1e-3 * rng.standard_normal(400)) == ""  # noise: no sampled oscillation
+    t30 = np.arange(1800) / 30.0  # a 0.02-rad swing in 10 mrad of noise at 30 fps: the noise pulls c to 7.3 a period
+    assert too_sparse(0.02 * np.cos(5.87 * t30) + 0.01 * rng.standard_normal(t30.size)) == ""
     assert "about 2.0 samples a period" in too_sparse(swing(2.0))
     why = too_sparse(swing(5.5) + 3e-3 * rng.standard_normal(400))
     assert 5.2 < float(why.split("about ")[1].split(" samples")[0]) < 5.8, why  # the damping moves it a little
