@@ -375,6 +375,10 @@ def read_lines(path: Path) -> list[tuple[int, str]]:
     if lines and lines[0][1].lower().startswith(("<!doctype html", "<html")):
         # a repository's file page saved from the browser in place of the file
         raise ConfigError("a web page (HTML), not a table: download the file itself (on GitHub: its Raw button)")
+    if lines and lines[0][1].lower().startswith("<?xml") and "<phyphox" in text[:2000].lower():
+        # the app's saved experiment (its buffers as XML), not its data export
+        raise ConfigError("a saved phyphox experiment (.phyphox, XML), not a table: export its data from the app "
+                          "(the menu's Export Data, as CSV) and give pendtrack that file")
     return lines
 
 

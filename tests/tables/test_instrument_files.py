@@ -587,6 +587,19 @@ def test_phyphox_csv(tmp_path, sep, comma):
 
 # --- Tracker: data export, project file ---------------------------------------------------------
 
+@pytest.mark.integration
+def test_a_saved_phyphox_experiment_is_named_with_its_export(tmp_path):
+    # the app's saved state (estmiguelplazas-web/Experimento-Phyphox---Pendulo-Simple): its XML was read as a table,
+    # "no row of numbers ... below the header '<state-title>..."
+    src = tmp_path / "pendulum.phyphox"
+    src.write_text('<?xml version="1.0" encoding="UTF-8"?><phyphox version="1.14" locale="en">\n'
+                   "  <title>Pendulum</title>\n  <data-containers>\n    <container size=\"0\">gyr_time</container>\n"
+                   "  </data-containers>\n  <state-title>run 1</state-title>\n</phyphox>\n")
+    res = invoke("kinematics", str(src), "--out", str(tmp_path / "out"), "-q")
+    _one_line_error(res, str(src), "a saved phyphox experiment", "Export Data, as CSV")
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
 def test_tracker_data_export(tmp_path):
     src = tmp_path / "mass_A.txt"  # File > Export > Data: the track name, then the table
     src.write_text("mass A\nt\tx\ty\n" + _rows(T, X, Y, sep="\t"))
