@@ -85,9 +85,11 @@ DRIVE_BANDS = 4.0  # ... and its amplitude 4 bands (24 noise sigmas) above: a we
 DRIVE_HALF_SWINGS = 5  # the amplitude's level: the median of 5 half swings in a row
 DRIVE_PROMINENCE = 2.0  # a turning point stands out of the record by 2 bands (12 noise sigmas) at least
 DRIVE_TOP = math.pi - 0.05  # half swings this large reach the top: left out [rad]
-DRIVE_APART = 0.5  # two tops (or two bottoms) of the swing are at least this share of its period apart
+DRIVE_APART = 0.75  # two tops (or two bottoms) of the swing are at least this share of its period apart
 DRIVE_NEAR = 0.1  # the noise of the amplitudes: of the samples within this share of a period of a turning point
 LIFT_FIT_PERIODS = 0.1  # the first sample's angle and speed: a quadratic through this share of a period
+NOISE_BLOCK_PERIODS = 4.0  # the sampled swing's relation (:func:`_swing_residuals`) is fitted over this many periods
+NOISE_BLOCK_MIN = 16  # ... and at least this many samples
 
 
 @dataclass(frozen=True)
@@ -188,6 +190,44 @@ def _usable(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> tuple[np.ndarra
     if idx.size < 4 * MIN_REST_SAMPLES:
         return None
     return idx, np.asarray(t, dtype=np.float64)[idx], np.asarray(theta, dtype=np.float64)[idx]
+
+
+def _swing_residuals(th: np.ndarray, period_samples: float) -> np.ndarray:
+    """Each sample's residual from the swing through its neighbours, in units of the samples' noise [rad].
+
+    A swing sampled every h obeys ``theta_{k+1} + theta_{k-1} = c theta_k + b`` (``c = 2 cos(w h)``, ``b`` from
+    its centre; exactly for a sinusoid of any amplitude), so the residual of that relation, fitted by least
+    squares over every :data:`NOISE_BLOCK_PERIODS` periods (the frequency of a large swing changes as it decays
+    or grows), holds the noise alone: white noise of sigma gives residuals of sigma ``sqrt(2 + c^2)``, divided
+    out here. Second differences hold the swing's curvature as well, ``(w h)^2`` of its amplitude: at 120 Hz
+    and 5 rad/s 0.2 %, at 20 Hz and 10 rad/s a quarter of it, which made a 1-rad swing's "noise" 0.1 rad.
+    Element k is sample k's residual (0 at the two ends).
+    """
+    n = th.size
+    out = np.zeros(n)
+    block = max(NOISE_BLOCK_MIN, int(NOISE_BLOCK_PERIODS * period_samples)) if math.isfinite(period_samples) else n
+    for start in range(0, n - 2, block):
+        stop = min(n, start + block + 2)
+        if stop - start < NOISE_BLOCK_MIN:  # a short tail joins the block before
+            start = max(0, stop - NOISE_BLOCK_MIN)
+        x = th[start:stop]
+        y = x[2:] + x[:-2]
+        a = np.column_stack([x[1:-1], np.ones(y.size)])
+        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        c = float(coef[0])
+        out[start + 1:stop - 1] = np.abs(y - a @ coef) / math.sqrt(2.0 + c * c)
+    return out
+
+
+def _noise(th: np.ndarray, residuals: np.ndarray) -> float:
+    """The samples' noise [rad]: the smaller of two robust estimates (MAD), each of which white noise alone
+    makes sigma and a swing only raises: second differences (:func:`_swing_residuals`' docstring: the swing's
+    curvature at a low rate) and ``residuals``, those of the sampled swing (:func:`_swing_residuals`: its change
+    of frequency, its harmonics)."""
+    d2 = 1.4826 * float(np.median(np.abs(np.diff(th, 2)))) / math.sqrt(6.0)
+    if th.size < NOISE_BLOCK_MIN:
+        return d2
+    return min(d2, 1.4826 * float(np.median(residuals[1:-1])))
 
 
 def _first_window(tt: np.ndarray) -> int:
@@ -296,7 +336,7 @@ def find_lift(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Lift | None:
     side = math.copysign(1.0, theta0)
     # the first turning point: the farthest from the bottom before the bob comes back by more than the noise
     away = side * th
-    noise = 1.4826 * float(np.median(np.abs(np.diff(th, 2)))) / math.sqrt(6.0)
+    noise = _noise(th, _swing_residuals(th, period / h))
     band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(th))
     back = np.flatnonzero(np.maximum.accumulate(away) - away > band)
     if back.size == 0:
@@ -326,14 +366,16 @@ def find_drive(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Drive | None
     if usable is None:
         return None
     _, tt, th = usable
-    noise = 1.4826 * float(np.median(np.abs(np.diff(th, 2)))) / math.sqrt(6.0)
+    h = float(np.median(np.diff(tt)))
+    period = dominant_period(th, h)
+    residuals = _swing_residuals(th, period / h)
+    noise = _noise(th, residuals)
     band = max(BAND_SIGMAS * noise, BAND_QUANTA * smallest_step(th))
     if not band > 0:
         return None
-    # two tops (or bottoms) of a swing are a period apart: within half of one the highest only, so that a tracker's
-    # jitter where the bob is slow (noisier than the band, set by the fast samples) makes no turning points of its own
-    h = float(np.median(np.diff(tt)))
-    period = dominant_period(th, h)
+    # two tops (or bottoms) of a swing are a period apart: within 3/4 of one the highest only, so that a tracker's
+    # jitter where the bob is slow (noisier than the band, set by the fast samples) makes no turning points of its own:
+    # a dip in the jitter at a top is half a period from the true bottoms on either side
     apart = max(1, int(DRIVE_APART * period / h)) if math.isfinite(period) else 1
     tops, _ = find_peaks(th, prominence=DRIVE_PROMINENCE * band, distance=apart)
     bottoms, _ = find_peaks(-th, prominence=DRIVE_PROMINENCE * band, distance=apart)
@@ -345,8 +387,12 @@ def find_drive(t: np.ndarray, theta: np.ndarray, ok: np.ndarray) -> Drive | None
     # swing's curvature, largest at a turning point, cancels; white noise's have 20 times its variance)
     near = max(2, int(DRIVE_NEAR * period / h)) if math.isfinite(period) else 2
     around = np.unique(np.clip(turns[:, None] + np.arange(-near, near + 1)[None, :], 1, th.size - 3))
+    # (or, the smaller, the sampled swing's residuals there: third differences too hold the swing at a low rate)
     d3 = np.abs(th[around + 2] - 3.0 * th[around + 1] + 3.0 * th[around] - th[around - 1])
-    band = max(band, BAND_SIGMAS * 1.4826 * float(np.median(d3)) / math.sqrt(20.0))
+    near_noise = 1.4826 * float(np.median(d3)) / math.sqrt(20.0)
+    if th.size >= NOISE_BLOCK_MIN:
+        near_noise = min(near_noise, 1.4826 * float(np.median(residuals[around])))
+    band = max(band, BAND_SIGMAS * near_noise)
     half = 0.5 * np.abs(np.diff(th[turns]))
     mid = 0.5 * (tt[turns[1:]] + tt[turns[:-1]])
     w = DRIVE_HALF_SWINGS

@@ -323,6 +323,47 @@ def test_a_swing_pumped_up_by_a_drive_is_no_free_swing(fps):
         free_swing(t, theta, np.ones(t.size, bool), source="pumped.txt")
 
 
+
+def _encoder_swing(*, target: float | None, seconds: float = 30.0, fps: float = 20.0, w0: float = 10.3,
+                   theta0: float = 0.45, gain: float = 0.01, step: float = math.pi / 1200.0) -> tuple[np.ndarray, np.ndarray]:
+    """A remote lab's pendulum (Omega0 ~10 rad/s) logged by a 2400-count encoder at ``fps``, about 12 samples a
+    period: with ``target`` [rad] an energy controller, torque ``gain (E* - E) omega``, swings it up from
+    ``theta0`` to that amplitude and keeps it there; without one it swings freely from ``theta0``."""
+    from scipy.integrate import solve_ivp
+
+    e_star = 0.0 if target is None else w0 * w0 * (1.0 - math.cos(target))
+
+    def rhs(time, y):
+        th, om = y
+        energy = 0.5 * om * om + w0 * w0 * (1.0 - math.cos(th))
+        drive = gain * (e_star - energy) * om if target is not None else 0.0
+        return [om, -w0 * w0 * math.sin(th) - 0.05 * om + drive]
+
+    t = 0.05 + np.arange(int(seconds * fps)) / fps
+    sol = solve_ivp(rhs, (0.0, t[-1]), [theta0, 0.0], t_eval=t, rtol=1e-10, atol=1e-12, max_step=0.005)
+    return t, np.round(sol.y[0] / step) * step
+
+
+def test_a_swing_driven_up_at_twelve_samples_a_period_is_no_free_swing():
+    # timdrysdale/pendulum-data@f6db412's remote-lab runs, 20 Hz, Omega0 10.3 rad/s: a controller swings the bob up
+    # from 0.47 to 1.16 rad over 15 s and holds it there, and the record was read as a free swing ("negative damping
+    # 49 % of samples"). At 12 samples a period the second differences hold a quarter of the swing, so its "noise"
+    # was 0.1 rad and the band 0.6 rad; the sampled swing's own residuals hold the encoder's steps alone
+    t, theta = _encoder_swing(target=1.15)
+    drive = find_drive(t, theta, np.ones(t.size, bool))
+    assert drive is not None and drive.amplitude_low < 0.7 and drive.amplitude_high > 1.0
+    with pytest.raises(PendtrackError, match="remote.csv: not a free swing: its amplitude grows"):
+        free_swing(t, theta, np.ones(t.size, bool), source="remote.csv")
+
+
+@pytest.mark.parametrize("theta0", [0.45, 1.2])
+def test_a_free_swing_at_twelve_samples_a_period_does_not_grow(theta0):
+    # the control: the same encoder and rate, no controller; a large swing's frequency changes as it decays
+    t, theta = _encoder_swing(target=None, theta0=theta0)
+    ok = np.ones(t.size, bool)
+    assert find_drive(t, theta, ok) is None
+    assert find_lift(t, theta, ok) is None
+
 def test_a_free_swing_with_a_tracking_spike_or_a_lost_turning_point_does_not_grow():
     t, theta = swing("standard", PARAMS, seconds=30.0, theta0=1.2, fps=60.0, noise=0.002)
     theta = theta.copy()
