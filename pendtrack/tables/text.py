@@ -44,7 +44,8 @@ from pendtrack.errors import ConfigError
 from pendtrack.tables.clock_times import clock_lines
 from pendtrack.tables.labelled_values import labelled_lines
 from pendtrack.tables.rounded_times import digit_unit
-from pendtrack.tables.units import (ALL_UNITS, ANGLE_UNITS, LENGTH_UNITS, RATE_UNITS, TIME_UNITS, ColumnName,
+from pendtrack.tables.units import (ALL_UNITS, ANGLE_UNITS, LENGTH_UNITS, RATE_UNITS, SENSOR_UNITS, TIME_UNITS,
+                                   ColumnName,
                                     columns_hint, parse_column_name, roles, split_unit)
 
 _HEADER_RE = re.compile(r"[^\s\[(]+(?:\s*[\[(][^\])]*[\])])?")
@@ -63,6 +64,8 @@ KIND_WORDS = {"t": "a time", "theta": "an angle", "xy": "a length", "x": "a posi
 DEFAULT_UNITS = {"t": "s", "theta": "rad", "xy": "px"}  # what a name without a unit is read in
 RATE_ADVICE = ("pendtrack reads an angle over time (or the bob's positions), and does not integrate a sensor's rates; "
                "export the angle, or film the swing and run pendtrack on the video")
+OTHER_ADVICE = ("pendtrack reads an angle over time (or the bob's positions); export the angle (a rotary motion "
+                "sensor's), or film the swing and run pendtrack on the video")
 RAGGED_SHARE = 0.9  # rows below a first row of another width that make it a line of settings (a ragged table's
                     # blank cells keep their separators, so its rows keep their count)
 FRAME_NAME_RE = re.compile(r"(frames?|frame ?(#|no\.?|number|nr\.?|index|_number|_no|_index))")  # a frame count
@@ -187,19 +190,29 @@ def _refuse_ragged_start(body: list[tuple[int, str]], sep: str | None, comma: bo
 
 
 def _rate_columns(preamble: list[tuple[int, str]]) -> dict[int, tuple[str, str]]:
-    """Columns of the header (its last line) whose unit is a rate, not a quantity pendtrack reads:
-    index -> (label, what the unit measures). A phone's sensor log (phyphox: ``Gyroscope x (rad/s)``,
-    ``Acceleration x (m/s^2)``) has no angle column, and an angular velocity read as theta is
-    a meaningless record."""
+    """Columns of the header (its last line) whose unit is a rate or another sensor's quantity, not one
+    pendtrack reads: index -> (label, what the unit measures). A phone's sensor log (phyphox: ``Gyroscope x
+    (rad/s)``, ``Acceleration x (m/s^2)``) or a light sensor's (``Light Intensity (%)``) has no angle column,
+    and an angular velocity or a light level read as theta is a meaningless record."""
     if not preamble:
         return {}
     out = {}
     for i, label in enumerate(header_fields(preamble[-1][1])):
         _, unit = split_unit(label.strip().strip('"').strip().lower())
-        what = RATE_UNITS.get(unit.replace(" ", ""))
+        what = RATE_UNITS.get(unit.replace(" ", "")) or SENSOR_UNITS.get(unit.replace(" ", ""))
         if what:
             out[i] = (label.strip().strip('"').strip(), what)
     return out
+
+
+def _not_read(what: set[str]) -> tuple[str, str]:
+    """What columns of the quantities ``what`` (:func:`_rate_columns`) are, and the advice for them."""
+    rates = sorted(w for w in what if w in RATE_UNITS.values())
+    others = sorted(what - set(rates))
+    kinds = "; ".join([*rates, *others])
+    if others:
+        return f"{kinds}", OTHER_ADVICE
+    return f"rates ({kinds})", RATE_ADVICE
 
 
 def _unit_columns(preamble: list[tuple[int, str]], width: int) -> dict[int, tuple[str, str, str]]:
@@ -457,9 +470,10 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                                   f"{frames[i]!r}: frame numbers, not seconds; {instead}")
         for i, c in enumerate(cols):
             if c is not None and c.role in ("theta", "x", "y") and i in rates:
+                kind, advice = _not_read({rates[i][1]})
+                kind = f"a rate ({rates[i][1]})" if kind.startswith("rates") else rates[i][1]
                 raise ConfigError(f"--columns names column {i + 1} {c.role}, but the header gives it as "
-                                  f"{rates[i][0]!r}, a rate ({rates[i][1]}), not {ROLE_WORDS[c.role]}: "
-                                  f"{RATE_ADVICE}")
+                                  f"{rates[i][0]!r}, {kind}, not {ROLE_WORDS[c.role]}: {advice}")
         cols = _header_units(cols, columns, preamble, width)
     else:
         cols_or_none = _header(preamble, group_sizes(shape_line, sep))
@@ -517,8 +531,10 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                               f"holds times: give the frame rate, --columns {names} --rate FPS") from None
         if where == "header" and rates and not any(c is not None and c.role in ("theta", "x", "y") for c in cols):
             names = ", ".join(repr(label) for label, _ in rates.values())
-            raise ConfigError(f"header: the columns {names} are rates ({'; '.join(sorted({u for _, u in rates.values()}))}), "
-                              f"not an angle or positions: {RATE_ADVICE}") from None
+            kind, advice = _not_read({u for _, u in rates.values()})
+            verb = "are" if len(rates) > 1 or kind.startswith("rates") else "is"
+            raise ConfigError(f"header: the column{'s' if len(rates) > 1 else ''} {names} {verb} {kind}, "
+                              f"not an angle or positions: {advice}") from None
         if short_header:
             raise ConfigError(f"{exc}; the header names {short_header} columns, the rows hold {width}") from None
         if (where == "header" and rate_hz is None and len(cols) > width >= 2

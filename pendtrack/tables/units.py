@@ -52,6 +52,13 @@ RATE_UNITS: Mapping[str, str] = {
     **{u: "an acceleration" for u in ("rad/s^2", "rad/s²", "rad/s2", "deg/s^2", "deg/s²", "°/s^2", "°/s²",
                                         "m/s^2", "m/s²", "m/s2")},
 }
+# a sensor's other quantities (a light sensor, a force plate, a voltage, a microphone, a magnetometer): no angle,
+# no position, no rate -> what the unit measures
+SENSOR_UNITS: Mapping[str, str] = {
+    "%": "a percentage", "lx": "an illuminance", "lux": "an illuminance", "v": "a voltage", "mv": "a voltage",
+    "n": "a force", "pa": "a pressure", "kpa": "a pressure", "hpa": "a pressure", "db": "a sound level",
+    "µt": "a magnetic field", "ut": "a magnetic field", "mt": "a magnetic field", "°c": "a temperature",
+}
 IGNORED = frozenset({"_", "-"})
 _UNIT_RE = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 _DATASET_RE = re.compile(r"^(?P<set>[^:\[(]+):\s*(?P<name>.+)$")  # Logger Pro's "Run 1: Time (s)"

@@ -282,9 +282,9 @@ COMMANDS = (("kinematics",), ("fit", "--model", "standard"), ("discover",))
 @pytest.mark.integration
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
 @pytest.mark.parametrize("case", ["three_columns", "unknown_header", "count", "repeated", "y_axis", "positions",
-                                  "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named", "one_column",
-                                  "settings_line", "rate_and_times", "rate_two_columns", "distance",
-                                  "distance_named"])
+                                  "four_columns", "web_page", "header_only", "gyroscope", "gyroscope_named", "light",
+                                  "light_named", "one_column", "settings_line", "rate_and_times", "rate_two_columns",
+                                  "distance", "distance_named"])
 def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case):
     src = tmp_path / "in.txt"
     flags: tuple[str, ...] = ()
@@ -320,6 +320,16 @@ def test_refusals_are_one_line_errors_without_artifacts(tmp_path, command, case)
         else:
             flags = ("--columns", "t,theta,_,_,_")
             fragments = (str(src), "column 2 theta", "'Gyroscope x (rad/s)', a rate (an angular velocity)")
+    elif case in ("light", "light_named"):
+        # a light sensor's log beside a swinging bob (Vernier's "Light Intensity (%)"): no angle; the hint offered
+        # --columns t,theta, which read a light level in percent as the angle
+        header = "Time (s),Light Intensity (%)\n"
+        src.write_text(header + _lines(T, 18.0 + 60.0 * (np.abs(THETA) < 0.05), sep=","))
+        if case == "light":
+            fragments = (str(src), "the column 'Light Intensity (%)' is a percentage, not an angle or positions")
+        else:
+            flags = ("--columns", "t,theta")
+            fragments = (str(src), "column 2 theta", "'Light Intensity (%)', a percentage, not an angle")
     elif case == "one_column":  # angles alone, one per line: read as times ("time going back") before
         src.write_text(_lines(np.degrees(THETA)))
         fragments = (str(src), "one column of numbers", "give it with --rate HZ")
