@@ -405,6 +405,7 @@ def _check_units(raw: dict[str, Any], path: Path) -> None:
         return  # a pendtrack artifact: its units are pendtrack's
     problems: list[str] = []
     fix: dict[str, str] = {}
+    note = ""
     t_col = cols[found["t"]]
     if t_col is not None and not t_col.declared:
         signal = raw["theta"] if raw.get("theta") is not None else raw["x"]
@@ -421,6 +422,9 @@ def _check_units(raw: dict[str, Any], path: Path) -> None:
                 why_theta, in_degrees = wrong_theta
                 if not in_degrees:  # no unit to declare: the column is not an angle
                     raise ArtifactError(why_theta, path=path)
+                if th_col.assumed:  # no header said it is an angle: the bob's position in px or mm looks alike
+                    note = ("; with no header to say what the column is, it may be the bob's position (px, mm) "
+                            "instead: pendtrack then reads its x and y (--columns t,x,y)")
                 problems.append(why_theta)
                 fix["theta"] = "deg"
         elif th_col is not None:  # declared: the numbers must still make a free swing in that unit
@@ -434,7 +438,7 @@ def _check_units(raw: dict[str, Any], path: Path) -> None:
         units = f"unit{'s' if len(fix) > 1 else ''}"
         how = (f"name the Parquet column{'s' if len(fix) > 1 else ''} {header}" if raw["kind"] == "parquet" else
                f"declare the {units} with --columns {columns_hint(cols, found, **fix)} (or in the header: {header})")
-        raise ArtifactError(f"{'; '.join(problems)}: {how}", path=path)
+        raise ArtifactError(f"{'; '.join(problems)}: {how}{note}", path=path)
 
 
 def _read_parquet(path: Path, spec: TableSpec) -> dict[str, Any]:

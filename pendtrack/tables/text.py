@@ -509,8 +509,8 @@ def read_text(path: Path, columns: tuple[str, ...] | None, *, rate_hz: float | N
                     hint = (f"e.g. --columns t,theta,_,... with one name per column, _ for each of the "
                             f"{width - 2} to ignore")
                 raise ConfigError(f"{width} columns and no header: say what they are with --columns; {hint}")
-            cols_or_none = ([ColumnName("theta", label="theta")] if rate_hz is not None else
-                            [ColumnName("t", label="t"), ColumnName("theta", label="theta")])
+            cols_or_none = ([ColumnName("theta", label="theta", assumed=True)] if rate_hz is not None else
+                            [ColumnName("t", label="t", assumed=True), ColumnName("theta", label="theta", assumed=True)])
         elif len(cols_or_none) < width:  # a header shorter than its rows: the rows' columns it does not name
             short_header = len(cols_or_none)
             cols_or_none = [*cols_or_none, *[None] * (width - len(cols_or_none))]

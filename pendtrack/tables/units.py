@@ -91,6 +91,8 @@ class ColumnName:
         Times made from ``--rate`` (row k at k / rate), not a column of the table.
     from_pair : bool
         One of the two numbers of a header field's (x, y) pair cell (``"(1392, 685)"`` under ``position``).
+    assumed : bool
+        A role no name gave: the two columns of a table without a header, read as t and theta.
     """
 
     role: str
@@ -102,6 +104,7 @@ class ColumnName:
     dataset: str = ""
     from_rate: bool = False
     from_pair: bool = False
+    assumed: bool = False
 
     @property
     def declared(self) -> bool:

@@ -509,6 +509,20 @@ def test_degrees_without_a_unit_are_an_error_naming_the_fix(tmp_path):
                                np.radians(turns), rtol=1e-15)
 
 
+
+def test_a_headerless_column_too_large_for_radians_may_also_be_a_position(tmp_path):
+    # a headerless t, x track in pixels about the axle (60 px swings) was told "it looks like degrees", and read so
+    # its Omega0 came out 4.27 against the 4.12 of the swing: with no header the same numbers may be a position
+    src = tmp_path / "track.txt"
+    src.write_text(_lines(T, 60.0 * np.sin(THETA)))
+    with pytest.raises(ArtifactError, match=r"it looks like degrees: declare .*; with no header to say what the column "
+                                            r"is, it may be the bob's position \(px, mm\) instead: .*--columns t,x,y"):
+        read_record(src)
+    src.write_text("t,theta\n" + _lines(T, np.degrees(THETA), sep=","))  # a header calls it theta: degrees alone
+    with pytest.raises(ArtifactError, match="it looks like degrees") as err:
+        read_record(src)
+    assert "position" not in str(err.value)
+
 def test_pixels_are_no_angle_in_any_unit(tmp_path):
     # a phone track's x, y [px] without a header, its bob swinging 0.2 rad on a 1000-px arm with 4 px of noise:
     # read as theta, the numbers are neither radians nor degrees (x swings by 400 between turning points), and
