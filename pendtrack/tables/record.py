@@ -568,6 +568,12 @@ def _theta_from_xy(raw: dict[str, Any], ok: np.ndarray, spec: TableSpec, pivot_f
         facts = {"source": "circle fit", **fitted}
     else:
         raise ArtifactError("x, y columns need the pivot: give --pivot X Y (in the table's units)", path=path)
+    plane = facts.get("swing_plane")
+    if plane is not None:  # a swing filmed obliquely: its positions as seen square to its plane (fitted_pivot)
+        log.warning("%s: %s", path, plane["note"])
+        (s00, s01), (s10, s11) = plane["stretch"]
+        dx, dy = x - pivot[0], y - pivot[1]
+        x, y = pivot[0] + s00 * dx + s01 * dy, pivot[1] + s10 * dx + s11 * dy
     theta = theta_from_xy(x, y, pivot=pivot, y_down=y_down)
     ext = turning_values(theta[usable])
     centre = float(np.median(0.5 * (ext[1:] + ext[:-1]))) if ext.size >= 3 else 0.0

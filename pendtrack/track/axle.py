@@ -21,6 +21,7 @@ from pendtrack.errors import ArtifactError, ConfigError, TrackingError
 from pendtrack.track.angle import theta_from_track
 from pendtrack.track.circle import circle_uncertainty, fit_circle, off_circle
 from pendtrack.track.lens_check import LensCheck, check_lens, suggestion_flags
+from pendtrack.track.plane_tilt import find_plane_tilt
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +39,11 @@ def fitted_pivot(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], dic
     Returns
     -------
     (px, py), facts
-        The centre, and ``radius``, ``rms`` (radial residual) and ``arc_deg`` for the provenance.
+        The centre, and ``radius``, ``rms`` (radial residual) and ``arc_deg`` for the provenance; where the path
+        is an ellipse, a swing filmed obliquely (:func:`pendtrack.track.plane_tilt.find_plane_tilt`), the centre is
+        the ellipse's and ``swing_plane`` holds its ``stretch`` (2 x 2: ``pivot + stretch @ (p - pivot)`` is the
+        position seen square to the swing plane, where theta is read), its axes ratio and tilt, and ``note``, the
+        line to warn with.
 
     Raises
     ------
@@ -51,7 +56,19 @@ def fitted_pivot(x: np.ndarray, y: np.ndarray) -> tuple[tuple[float, float], dic
         span = 0.0 if fit is None else math.degrees(fit.arc_span)
         raise ArtifactError(f"the x, y path spans {span:.2g} deg of arc, too little to fit its pivot: "
                             "give --pivot X Y")
-    return (fit.xc, fit.yc), {"radius": fit.radius, "rms": fit.rms, "arc_deg": math.degrees(fit.arc_span)}
+    facts: dict[str, Any] = {"radius": fit.radius, "rms": fit.rms, "arc_deg": math.degrees(fit.arc_span)}
+    tilt = find_plane_tilt(x, y, fit, f_scale=max(0.01 * scale, 1e-12))
+    if tilt is None:
+        return (fit.xc, fit.yc), facts
+    return (tilt.xc, tilt.yc), {**facts, "swing_plane": {**tilt.to_dict(), "note": tilt_text(tilt, unit="")}}
+
+
+def tilt_text(tilt: Any, *, unit: str) -> str:
+    """One line: the swing plane's tilt (:class:`pendtrack.track.plane_tilt.PlaneTilt`) and what is done about it."""
+    return (f"the bob's path is an ellipse, not a circle (axes {tilt.axes_ratio:.4f} +- {tilt.axes_ratio_sigma:.4f}, "
+            f"the short one at {tilt.short_axis_deg:.0f} deg; residual {tilt.rms:.3g}{unit} against the circle's "
+            f"{tilt.circle_rms:.3g}{unit}): the swing's plane is turned {tilt.tilt_deg:.1f} deg from the camera's, and "
+            "theta is read in the swing's plane; film square to the swing to need no such correction")
 
 
 MIN_ARC_SPAN_DEG = 20.0  # a shorter arc locates the axle poorly: theta with a warning stating its uncertainty
@@ -222,6 +239,20 @@ def _span(v: np.ndarray) -> str:
     return lo if lo == hi else f"{lo}-{hi}"
 
 
+def _plane_tilt(df: pd.DataFrame, ok: np.ndarray) -> Any:
+    """The swing plane's tilt (:func:`pendtrack.track.plane_tilt.find_plane_tilt`) from the ok corrected positions
+    less the parked ones (:func:`_parked`: a look-alike the tracker sat on), or None."""
+    idx = np.flatnonzero(ok)
+    if idx.size < 10:
+        return None
+    x, y = df["x"].to_numpy(float)[idx], df["y"].to_numpy(float)[idx]
+    t = df["t"].to_numpy(float)[idx] if "t" in df else idx.astype(float)
+    keep = ~_parked(t, x, y)
+    if keep.sum() < 10:
+        return None
+    return find_plane_tilt(x[keep], y[keep], fit_circle(x[keep], y[keep]))
+
+
 @dataclass(frozen=True)
 class AngleTable:
     """What the angle stage writes.
@@ -233,7 +264,9 @@ class AngleTable:
     extra : dict
         The provenance facts: ``axle_source``, the angle result (axle [px], zero, rest),
         ``lens``, ``lens_check``, and with a fitted axle ``circle_rms_px`` and
-        ``axle_uncertainty`` (axle and radius sigmas [px], ``theta_scale_rel``, ``zero_sigma_rad``).
+        ``axle_uncertainty`` (axle and radius sigmas [px], ``theta_scale_rel``, ``zero_sigma_rad``); for a
+        swing filmed obliquely ``swing_plane`` (:meth:`pendtrack.track.plane_tilt.PlaneTilt.to_dict`): the
+        circle, the axle and theta are then those of the positions seen square to the swing plane.
     facts : dict
         The stage's facts: axle, zero reference, circle RMS [px], lens verdict.
     """
@@ -282,19 +315,30 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
     """
     ok = df["ok"].to_numpy(bool) & np.isfinite(df["x"].to_numpy()) & np.isfinite(df["y"].to_numpy())
     ac = options
-    ok, off = _without_off_circle(df, ok, ac.axle, source)
+    raw = df
+    tilt = None if ac.axle else _plane_tilt(df, ok)
+    if tilt is not None:  # a swing filmed obliquely: from here on its positions as seen square to its plane
+        x_sq, y_sq = tilt.square(df["x"].to_numpy(float), df["y"].to_numpy(float))
+        df = df.assign(x=x_sq, y=y_sq)
+    ok_in = ok
+    ok, off = _without_off_circle(df, ok_in, ac.axle, source)
     check = None
     if ac.lens_check != "off":
-        check = lens_check_of_track(df, ok, track_extra, track_config, ratio=ac.lens_ratio)
+        check = lens_check_of_track(df, ok, track_extra, track_config, ratio=ac.lens_ratio)  # raw x_px, y_px
         if check is not None and check.verdict == "mismatch":
             # a lens the user named is theirs to keep: the check only warns
             if ac.lens_check == "error" and not lens_was_named(track_config):
                 raise ConfigError(lens_mismatch_text(check), path=source)
             log.warning("%s: %s", source, lens_mismatch_text(check))
+            if tilt is not None:  # a wrong lens bends the circle too: the ellipse is not the swing plane's to tell
+                tilt, df = None, raw
+                ok, off = _without_off_circle(df, ok_in, ac.axle, source)
         elif check is not None and check.verdict == "undecided" and not lens_was_named(track_config):
             text = unchecked_lens_text(check)
             if text:
                 log.warning("%s: %s", source, text)
+    if tilt is not None:
+        log.warning("%s: %s", source, tilt_text(tilt, unit=" px"))
     circle = None
     uncertainty: dict[str, object] = {}
     if ac.axle:
@@ -356,6 +400,8 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
     if circle is not None:
         extra["circle_rms_px"] = circle.rms
         extra["axle_uncertainty"] = uncertainty
+    if tilt is not None:
+        extra["swing_plane"] = tilt.to_dict()
     facts = {"axle": axle, "zero_reference": res.zero_reference,
              "circle_rms_px": circle.rms if circle is not None else None,
              "lens_verdict": check.verdict if check is not None else "not checked"}

@@ -325,7 +325,8 @@ def test_a_swing_pumped_up_by_a_drive_is_no_free_swing(fps):
 
 
 def _encoder_swing(*, target: float | None, seconds: float = 30.0, fps: float = 20.0, w0: float = 10.3,
-                   theta0: float = 0.45, gain: float = 0.01, step: float = math.pi / 1200.0) -> tuple[np.ndarray, np.ndarray]:
+                   theta0: float = 0.45, gain: float = 0.01,
+                   step: float = math.pi / 1200.0) -> tuple[np.ndarray, np.ndarray]:
     """A remote lab's pendulum (Omega0 ~10 rad/s) logged by a 2400-count encoder at ``fps``, about 12 samples a
     period: with ``target`` [rad] an energy controller, torque ``gain (E* - E) omega``, swings it up from
     ``theta0`` to that amplitude and keeps it there; without one it swings freely from ``theta0``."""
