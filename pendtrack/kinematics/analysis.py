@@ -194,8 +194,10 @@ def turning_values(t: np.ndarray, theta: np.ndarray, alpha: np.ndarray, tp: Turn
     where the noise makes omega steepest, so alpha there is biased away from the curve's (8 mrad of noise
     at 30 fps on a 0.2-rad swing: Omega0 +4.5 %, against -0.7 % from the crossings; within 1e-4 on a clean
     record). The crossings lie a quarter period away, outside the filter's window at the turning point. A
-    turning point without two crossings around it in its segment (the record's first and last, a gap, two
-    turning points between the same crossings) keeps ``tp``'s values.
+    turning point without two crossings around it in its segment (the record's first and last, a gap) keeps
+    ``tp``'s values. Several turning points between the same two crossings are one half swing's, the others
+    made by the noise where the bob is slow (8 mrad at 30 fps: 123-129 for 111 half swings): the first stands
+    for it, with the crossings' midpoint, and the others are left out of the returned arrays.
 
     Parameters
     ----------
@@ -224,19 +226,20 @@ def turning_values(t: np.ndarray, theta: np.ndarray, alpha: np.ndarray, tp: Turn
         return th_ext, al_ext
     tz = t[i] + (t[i + 1] - t[i]) * x[i] / (x[i] - x[i + 1])
     k = np.searchsorted(tz, tp.t)
-    use = (k > 0) & (k < tz.size)
+    inside = (k > 0) & (k < tz.size)
     k = np.clip(k, 1, tz.size - 1)
     same = (seg[i[k - 1]] == seg[i[k]]) & (seg[i[k]] == seg[np.asarray(tp.index, dtype=np.int64)])
-    use &= same
-    use[1:] &= k[1:] != k[:-1]  # one turning point between two crossings
-    use[:-1] &= k[:-1] != k[1:]
+    inside &= same
+    repeat = np.zeros(k.size, dtype=bool)  # a later turning point between the same two crossings
+    repeat[1:] = inside[1:] & inside[:-1] & (k[1:] == k[:-1])
+    use = inside & ~repeat
     mid = 0.5 * (tz[k - 1] + tz[k])
     j = np.clip(np.searchsorted(t, mid) - 1, 0, t.size - 2)
     use &= good[j] & good[j + 1] & (seg[j] == seg[j + 1])
     f = (mid - t[j]) / (t[j + 1] - t[j])
     th_ext[use] = (theta[j] + f * (theta[j + 1] - theta[j]))[use]
     al_ext[use] = (alpha[j] + f * (alpha[j + 1] - alpha[j]))[use]
-    return th_ext, al_ext
+    return th_ext[~repeat], al_ext[~repeat]
 
 
 def savgol_bias_moments(window_points: int, order: int, h: float) -> tuple[float, float]:

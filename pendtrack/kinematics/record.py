@@ -224,7 +224,8 @@ def kinematics_table(t: np.ndarray, theta: np.ndarray, ok: np.ndarray, *, option
         "Omega0_raw": None if raw is None else raw.omega0,
         "Omega0_reason": ana.reason,
         "theta_centre": ana.centre,
-        "n_turning_points": len(ana.turning),
+        # one per half swing: those eq. straightline took (noise-made ones between the same crossings left out)
+        "n_turning_points": len(ana.turning) if ana.omega0 is None else ana.omega0.n_points + ana.omega0.n_rejected,
         "negative_damping_fraction": None if math.isnan(ana.negative_damping_fraction)
         else ana.negative_damping_fraction,
         "ok_fraction": float(np.mean(kin.ok)) if kin.ok.size else 0.0,

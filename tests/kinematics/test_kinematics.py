@@ -505,6 +505,9 @@ def test_model_free_omega0_of_a_noisy_low_rate_record_is_within_its_error(seed):
     assert abs(est.omega0 - truth) < 3.0 * est.stderr, (est.omega0, est.stderr)
     clean = omega0_from_kinematics(savgol_kinematics(t, sim.theta, window_s=0.22, order=3))
     assert clean.omega0 == pytest.approx(truth, rel=2e-4)  # eq. straightline on the clean curve (SG bias removed)
+    # one turning point per half swing, as on the clean curve: the noise's further sign changes of omega between
+    # the same two crossings of the centre are none (they made 123-129 of 111)
+    assert est.n_points + est.n_rejected == clean.n_points + clean.n_rejected
 
 
 @pytest.mark.parametrize("command", ["kinematics", "fit"])
