@@ -24,7 +24,7 @@ PAPER_FPS = 120.0
 SAVGOL_WINDOW_S = 25 / PAPER_FPS  # the paper's Savitzky-Golay window: 25 frames at 120 fps [s]
 MEMORY_S = 100 / PAPER_FPS  # the paper's Grünwald–Letnikov memory: 100 frames at 120 fps [s]
 # the file suffixes read as videos (batch's default extensions, discovery's inputs, run codes), any case
-VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg", ".mpeg", ".wmv")
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".m4v", ".mts", ".webm", ".mpg", ".mpeg", ".wmv", ".gif")
 # radial projections of pendtrack.lens.fisheye (a lens's input; "none" and "rectilinear" do not bend rays)
 LENS_PROJECTIONS = ("equisolid", "equidistant", "stereographic", "orthographic", "rectilinear", "none")
 FIT_COSTS = ("xi2", "theta")  # fit cost: the paper's Xi^2 on A_theta, A_omega | least squares on theta

@@ -67,8 +67,9 @@ def tilt_text(tilt: Any, *, unit: str) -> str:
     """One line: the swing plane's tilt (:class:`pendtrack.track.plane_tilt.PlaneTilt`) and what is done about it."""
     return (f"the bob's path is an ellipse, not a circle (axes {tilt.axes_ratio:.4f} +- {tilt.axes_ratio_sigma:.4f}, "
             f"the short one at {tilt.short_axis_deg:.0f} deg; residual {tilt.rms:.3g}{unit} against the circle's "
-            f"{tilt.circle_rms:.3g}{unit}): the swing's plane is turned {tilt.tilt_deg:.1f} deg from the camera's, and "
-            "theta is read in the swing's plane; film square to the swing to need no such correction")
+            f"{tilt.circle_rms:.3g}{unit}): the swing's plane is turned {tilt.tilt_deg:.1f} deg from the camera's (or the "
+            "image is stretched along one axis), and theta is read in the swing's plane; film square to the swing to "
+            "need no such correction")
 
 
 MIN_ARC_SPAN_DEG = 20.0  # a shorter arc locates the axle poorly: theta with a warning stating its uncertainty
@@ -330,13 +331,17 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
             if ac.lens_check == "error" and not lens_was_named(track_config):
                 raise ConfigError(lens_mismatch_text(check), path=source)
             log.warning("%s: %s", source, lens_mismatch_text(check))
-            if tilt is not None:  # a wrong lens bends the circle too: the ellipse is not the swing plane's to tell
-                tilt, df = None, raw
-                ok, off = _without_off_circle(df, ok_in, ac.axle, source)
         elif check is not None and check.verdict == "undecided" and not lens_was_named(track_config):
             text = unchecked_lens_text(check)
             if text:
                 log.warning("%s: %s", source, text)
+    # a wrong lens bends the circle too: where the lens is wrong or in doubt (it moves theta beyond the track's
+    # scatter), the ellipse is not the swing plane's to tell, and the positions stay as tracked
+    lens_in_doubt = check is not None and (check.verdict == "mismatch" or (
+        check.verdict == "undecided" and not lens_was_named(track_config) and bool(unchecked_lens_text(check))))
+    if tilt is not None and lens_in_doubt:
+        tilt, df = None, raw
+        ok, off = _without_off_circle(df, ok_in, ac.axle, source)
     if tilt is not None:
         log.warning("%s: %s", source, tilt_text(tilt, unit=" px"))
     circle = None

@@ -266,6 +266,29 @@ def test_an_animated_gif_with_a_red_bob_and_a_red_phase_dot(tmp_path):
     assert np.abs(df["theta"].to_numpy()[ok] - theta[ok]).max() < 0.010
 
 
+
+@pytest.mark.video
+@pytest.mark.integration
+def test_run_takes_an_animated_gif_for_the_video_it_is(tmp_path):
+    # `track` read GIFs, but `run` sorted files by a list of video suffixes without .gif and read one as a table:
+    # "not a text table (binary data)" (a GIF of a swing in ara-vatan's pendulum tracker, arantxax/pendulumtracker)
+    from click.testing import CliRunner
+
+    from pendtrack.cli import cli
+
+    gif = tmp_path / "swing.GIF"
+    theta = _figure_gif(gif, n=400)
+    cfg = tmp_path / "quick.toml"
+    cfg.write_text("[fit]\nn_starts = 4\nprofile = false\n")
+    res = CliRunner().invoke(cli, ["run", str(gif), "--marker-color", "red", "--projection", "none", "--model",
+                                   "classic", "--config", str(cfg), "--out", str(tmp_path / "r"), "-q"])
+    assert "not a text table" not in res.output and res.exit_code in (0, 1), res.output
+    df = read_artifact(tmp_path / "r" / "angle.parquet", "angle").data
+    ok = df["ok"].to_numpy(bool)
+    err = df["theta"].to_numpy()[ok] - theta[ok]
+    # as `track` reads it, about the zero the angle stage took (the drawing's rest at its end, not its vertical)
+    assert ok.mean() > 0.95 and np.abs(err - np.median(err)).max() < 0.010
+
 def _hops(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A tracker taking a hand, a knot and pieces of the scenery for the marker in turn (Niettzche/PenduloNewton@34bbab5,
     pendulo6.mp4, the default pink marker on an amber bob): still for seconds at a place, carried or jumping to the
