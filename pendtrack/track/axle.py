@@ -129,6 +129,27 @@ def lens_mismatch_text(check: LensCheck) -> str:
             f"lens_check = \"warn\" in --config to go on")
 
 
+#: The lens left in doubt (:func:`unchecked_lens_text`) moves theta by more than this share of the swing's own rms
+#: angle: theta is then an assumption's, not a measurement's (a webcam's 0.5-rad swing under the default fisheye
+#: read 20 % off, its Omega0 3.5 %), and the angle stage stops and asks for the lens (``lens_check = "error"``)
+LENS_DOUBT_SHARE = 0.05
+
+
+def _refuse_a_doubtful_lens(df: pd.DataFrame, ok: np.ndarray, axle: tuple[float, float], check: LensCheck, doubt: str,
+                            *, options: AngleConfig, source: Any) -> None:
+    """ConfigError when the unchecked default lens moves theta by more than :data:`LENS_DOUBT_SHARE` of the swing
+    (and ``lens_check = "error"``); else the warning ``doubt``."""
+    x, y = df["x"].to_numpy(float)[ok], df["y"].to_numpy(float)[ok]
+    swing = float(np.std(np.unwrap(np.arctan2(x - axle[0], y - axle[1])))) if x.size else 0.0
+    change = 1e-3 * max((h.theta_change_mrad for h in check.hypotheses if h.name != "configured"), default=0.0)
+    if options.lens_check == "error" and swing > 0 and change > LENS_DOUBT_SHARE * swing:
+        raise ConfigError(f"{doubt}: {change / swing:.0%} of the swing's {swing:.3g}-rad rms, too much to read theta on an "
+                          "assumed lens; name the camera's lens (--projection none for a phone's or a webcam's, or the "
+                          "fisheye's --projection/--fov), or set [angle] lens_check = \"warn\" in --config to go on",
+                          path=source)
+    log.warning("%s: %s", source, doubt)
+
+
 def unchecked_lens_text(check: LensCheck) -> str:
     """One line when the default lens could not be checked and another lens would move theta by more than
     the track's own scatter about its circle (what the lens decides exceeds what tracking does); else ""."""
@@ -331,14 +352,12 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
             if ac.lens_check == "error" and not lens_was_named(track_config):
                 raise ConfigError(lens_mismatch_text(check), path=source)
             log.warning("%s: %s", source, lens_mismatch_text(check))
-        elif check is not None and check.verdict == "undecided" and not lens_was_named(track_config):
-            text = unchecked_lens_text(check)
-            if text:
-                log.warning("%s: %s", source, text)
+    doubt = ""  # the default lens unchecked, and theta depending on it beyond the track's scatter
+    if check is not None and check.verdict == "undecided" and not lens_was_named(track_config):
+        doubt = unchecked_lens_text(check)
     # a wrong lens bends the circle too: where the lens is wrong or in doubt (it moves theta beyond the track's
     # scatter), the ellipse is not the swing plane's to tell, and the positions stay as tracked
-    lens_in_doubt = check is not None and (check.verdict == "mismatch" or (
-        check.verdict == "undecided" and not lens_was_named(track_config) and bool(unchecked_lens_text(check))))
+    lens_in_doubt = check is not None and (check.verdict == "mismatch" or bool(doubt))
     if tilt is not None and lens_in_doubt:
         tilt, df = None, raw
         ok, off = _without_off_circle(df, ok_in, ac.axle, source)
@@ -391,6 +410,8 @@ def angle_table(df: pd.DataFrame, *, options: AngleConfig, track_extra: Mapping[
                         "px), so theta carries a scale uncertainty of %.1f %%", source, span, max(sx, sy),
                         circle.radius, sr, 100 * scale_rel)
         axle = (circle.xc, circle.yc)
+    if doubt:
+        _refuse_a_doubtful_lens(df, ok, axle, check, doubt, options=ac, source=source)
     res = theta_from_track(df["t"].to_numpy(float), df["x"].to_numpy(float), df["y"].to_numpy(float), ok,
                            axle=axle, rest_seconds=ac.rest_seconds, rest_omega_max=ac.rest_omega_max,
                            circle=circle)

@@ -241,3 +241,44 @@ def test_an_unchecked_default_lens_that_moves_theta_is_named():
                        480.0 + 33.0 * np.cos(phi) + rng.normal(0, 0.3, phi.size), width=1280, height=960,
                        projection="equisolid", fov_deg=120.0, fixed_pixels=0.48, ratio=2.0)
     assert small.verdict == "undecided" and unchecked_lens_text(small) == ""
+
+
+@pytest.mark.parametrize("lens_check", ["error", "warn"])
+def test_a_short_arc_whose_theta_rests_on_the_unchecked_default_lens_is_refused(lens_check, caplog):
+    # a webcam's swing (SonyNeto/analise_dados_pendulo_simples@d61bcbb, 640x480, a 52-deg arc above the frame's
+    # centre) read on the default fisheye: 70 mrad rms at stake, a fifth of the swing, and Omega0 8.685 +- 0.093
+    # against 8.390 with --projection none, with no word beyond a warning; an 11-deg swing of a dark ball exited 0
+    # with Omega0 5 % off. Here a normal lens's 0.45-rad swing 400 px below an axle above a 640x480 frame: 59 mrad
+    import logging
+
+    import pandas as pd
+
+    from pendtrack.config import AngleConfig, LensConfig
+    from pendtrack.lens.fisheye import fisheye_from_config
+    from pendtrack.track.axle import angle_table
+
+    rng = np.random.default_rng(5)
+    t = np.arange(1200) / 60.0
+    phi = 0.45 * np.cos(2.0 * np.pi * t / 1.2)
+    x_px = 375.0 + 400.0 * np.sin(phi) + rng.normal(0, 0.3, t.size)
+    y_px = -50.0 + 400.0 * np.cos(phi) + rng.normal(0, 0.3, t.size)
+    lens = LensConfig()
+    x, y = fisheye_from_config(lens, width=640, height=480).undistort_points(x_px, y_px)
+    df = pd.DataFrame({"frame": np.arange(t.size), "t": t, "x": x, "y": y, "x_px": x_px, "y_px": y_px,
+                       "ok": np.ones(t.size, bool)})
+    extra = {"video": {"width": 640, "height": 480}}
+    config = {"lens": {"projection": lens.projection, "fov_deg": lens.fov_deg, "fixed_pixels": lens.fixed_pixels}}
+    options = AngleConfig(lens_check=lens_check)
+    if lens_check == "error":
+        with pytest.raises(ConfigError, match=r"theta depends on it.*of the swing's .*-rad rms, too much to read theta "
+                                              r"on an assumed lens; name the camera's lens \(--projection none"):
+            angle_table(df, options=options, track_extra=extra, track_config=config, source="webcam")
+    else:
+        with caplog.at_level(logging.WARNING):
+            table = angle_table(df, options=options, track_extra=extra, track_config=config, source="webcam")
+        assert table.extra["lens_check"]["verdict"] == "undecided" and "theta depends on it" in caplog.text
+    # the lens named (a phone's: none), the same positions are read without a word
+    named = {"lens": {"projection": "none", "fov_deg": lens.fov_deg, "fixed_pixels": lens.fixed_pixels}}
+    df_none = df.assign(x=x_px, y=y_px)
+    table = angle_table(df_none, options=AngleConfig(), track_extra=extra, track_config=named, source="webcam")
+    assert np.nanmax(np.abs(table.frame["theta"].to_numpy() - (phi - np.median(phi)))) < 0.01
